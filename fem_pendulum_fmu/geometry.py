@@ -1,0 +1,60 @@
+"""Pendulum and wall geometry with netgen.occ, and meshing.
+
+Boundary names: "hinge" (top edge of the rod, centred on the pivot),
+"head" (outer circle of the ring head, where contact happens), "wall_face"
+(the block's contact face x = x_max) and "wall_fixed" (the block's other
+edges, clamped). Material names: "pendulum" and "wall".
+"""
+from __future__ import annotations
+
+from netgen.occ import X, Y, Circle, Compound, MoveTo, OCCGeometry
+
+from .scene import PendulumGeometry, WallBlock
+
+
+def pendulum_shape(geo: PendulumGeometry):
+    """The pendulum hanging straight down from the pivot at the origin."""
+    w, d, R, r = geo.rod_half_width, geo.head_centre_depth, geo.head_radius, geo.hole_radius
+    rod = MoveTo(-w, -d).Rectangle(2 * w, d).Face()
+    rod.edges.Max(Y).name = "hinge"
+    ring = Circle((0, -d), R).Face()
+    ring.edges.name = "head"
+    hole = Circle((0, -d), r).Face()
+    body = (rod + ring) - hole
+    body.faces.name = "pendulum"
+    return body
+
+
+def wall_shape(block: WallBlock):
+    wall = MoveTo(block.x_min, block.y_min).Rectangle(block.x_max - block.x_min, block.y_max - block.y_min).Face()
+    wall.edges.name = "wall_fixed"
+    wall.edges.Max(X).name = "wall_face"
+    wall.faces.name = "wall"
+    return wall
+
+
+def make_geometry(geo: PendulumGeometry, block: WallBlock | None = None,
+                  head_edge_size: float | None = None, wall_face_size: float | None = None) -> OCCGeometry:
+    """OCC geometry of the pendulum, and of the wall block when `block` is given."""
+    body = pendulum_shape(geo)
+    if head_edge_size is not None:
+        body.edges["head"].maxh = head_edge_size
+    shapes = [body]
+    if block is not None:
+        wall = wall_shape(block)
+        if wall_face_size is not None:
+            wall.edges["wall_face"].maxh = wall_face_size
+        shapes.append(wall)
+    shape = Compound(shapes) if len(shapes) > 1 else body
+    return OCCGeometry(shape, dim=2)
+
+
+def make_mesh(geo: PendulumGeometry, mesh_size: float, order: int, block: WallBlock | None = None,
+              head_edge_size: float | None = None, wall_face_size: float | None = None):
+    """A curved NGSolve mesh of the scene (order-`order` geometry)."""
+    from ngsolve import Mesh
+
+    occ = make_geometry(geo, block, head_edge_size, wall_face_size)
+    mesh = Mesh(occ.GenerateMesh(maxh=mesh_size))
+    mesh.Curve(max(order, 2))
+    return mesh

@@ -1,0 +1,117 @@
+"""The one protocol every fidelity implements, and the plain data it exchanges.
+
+The FMI slave and the masters only ever see `PendulumModel`, `Outputs` and
+`ModelState`; which physics runs behind them is chosen by `models.create`.
+"""
+from __future__ import annotations
+
+import io
+import json
+from dataclasses import asdict, dataclass, field, fields
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from ..scene import Scene
+
+
+class StepFailed(RuntimeError):
+    """The model could not complete an advance; its state is as it was before the call."""
+
+
+@dataclass
+class Outputs:
+    """Everything a model reports after an advance (SI units)."""
+
+    time: float = 0.0
+    theta: float = 0.0
+    omega: float = 0.0
+    gap: float = 0.0
+    contact_force: float = 0.0
+    kinetic: float = 0.0
+    potential: float = 0.0
+    strain: float = 0.0
+    contact: float = 0.0
+    total: float = 0.0
+    torque_work: float = 0.0
+    von_mises_max: float = 0.0
+    substeps: int = 0
+
+    @property
+    def energy_error(self) -> float:
+        """Not meaningful alone: E_total(t) - W_torque(t); subtract E_total(0) for the scheme's error."""
+        return self.total - self.torque_work
+
+    def as_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+
+@dataclass
+class ModelState:
+    """A model's complete state: scalars plus named numpy arrays (deep-copied on the way in and out)."""
+
+    fidelity: str
+    time: float
+    scalars: dict[str, float] = field(default_factory=dict)
+    arrays: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def copy(self) -> "ModelState":
+        return ModelState(self.fidelity, self.time, dict(self.scalars),
+                          {k: np.array(v, copy=True) for k, v in self.arrays.items()})
+
+    def to_bytes(self) -> bytes:
+        """Serialise to a self-describing .npz byte string (no pickle)."""
+        header = {"format": "fem_pendulum_fmu.state", "version": 1, "fidelity": self.fidelity,
+                  "time": self.time, "scalars": self.scalars}
+        buf = io.BytesIO()
+        np.savez(buf, __header__=np.frombuffer(json.dumps(header).encode(), dtype=np.uint8),
+                 **{f"a_{k}": v for k, v in self.arrays.items()})
+        return buf.getvalue()
+
+    @staticmethod
+    def from_bytes(data: bytes) -> "ModelState":
+        """Inverse of to_bytes; raises ValueError on anything that is not such a state."""
+        try:
+            with np.load(io.BytesIO(bytes(data)), allow_pickle=False) as npz:
+                header = json.loads(npz["__header__"].tobytes().decode())
+                arrays = {k[2:]: np.array(npz[k]) for k in npz.files if k.startswith("a_")}
+        except Exception as exc:  # zipfile, json, key errors: all mean corrupt bytes
+            raise ValueError(f"not a serialised model state ({type(exc).__name__}: {exc})") from None
+        if header.get("format") != "fem_pendulum_fmu.state" or header.get("version") != 1:
+            raise ValueError(f"not a serialised model state of a known version: header {header!r}")
+        return ModelState(str(header["fidelity"]), float(header["time"]),
+                          {k: float(v) for k, v in header["scalars"].items()}, arrays)
+
+
+@runtime_checkable
+class PendulumModel(Protocol):
+    """What the slave and the masters need from any fidelity."""
+
+    scene: Scene
+    fidelity: str
+
+    def advance(self, t_end: float, torque: float) -> Outputs:
+        """Integrate from the current time to t_end with the torque held constant.
+
+        Raises StepFailed (state unchanged) when the step cannot be completed and
+        ValueError for a bad argument (state unchanged)."""
+
+    def outputs(self) -> Outputs:
+        """The outputs at the current time."""
+
+    def get_state(self) -> ModelState:
+        """A deep copy of the full state."""
+
+    def set_state(self, state: ModelState) -> None:
+        """Restore a state taken from a model built with the same scene."""
+
+
+def check_advance_args(time: float, t_end: float, torque: float) -> None:
+    """Shared argument check for advance(): a ValueError naming the bad value."""
+    if not np.isfinite(torque):
+        raise ValueError(f"torque = {torque!r} is not allowed: it must be a finite number (N.m)")
+    if not np.isfinite(t_end) or t_end <= time:
+        raise ValueError(f"t_end = {t_end!r} is not allowed: it must be a finite time after the current time {time!r}")
+
+
+OUTPUT_FIELDS = tuple(f.name for f in fields(Outputs))
