@@ -1,0 +1,380 @@
+"""Full nonlinear FE pendulum: plane-stress Neo-Hookean, hinge, gravity, torque, wall contact.
+
+Time integration is an energy-momentum midpoint scheme: the inertia is the
+midpoint rule, the elastic stress is the discrete gradient of the strain
+energy in C (material.averaged_pk2_stress pushed forward with F at the
+midpoint), contact is the discrete-gradient penalty force of contact.py and
+the follower torque acts at the midpoint configuration. Over every step the
+change of kinetic + gravity + strain + contact energy equals the work of the
+torque up to the Newton tolerance, so impacts neither gain nor lose energy.
+Step sizes come from stepping.py.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import ngsolve as ngs
+from ngsolve import (BND, CF, VOL, BilinearForm, Cof, Grad, GridFunction, Id, InnerProduct, IntegrationRule,
+                     Integrate, LinearForm, NumberSpace, Norm, Parameter, SEGM, VectorH1, specialcf, x, y)
+
+from .. import contact as wall_contact
+from .. import material
+from ..geometry import make_mesh
+from ..scene import Scene, validate
+from ..stepping import StepControl, advance as advance_steps
+from .base import ModelState, Outputs, StepFailed, check_advance_args
+
+NEWTON_MAX_IT = 12
+
+
+@dataclass
+class FemState:
+    """Displacement, velocity (numpy copies) and the energy bookkeeping of one instant."""
+
+    u: np.ndarray
+    v: np.ndarray
+    lam: np.ndarray
+    torque_work: float
+
+
+class FemModel:
+    """The full-fidelity model (fidelity "fem")."""
+
+    fidelity = "fem"
+
+    def __init__(self, scene: Scene):
+        self.scene = validate(scene)
+        if scene.wall.kind == "deformable":
+            raise ValueError("parameter wall.kind = 'deformable' is not available yet in the fem model: choose rigid or none")
+        ngs.SetNumThreads(scene.model.threads)
+        self.control = StepControl(max_step=scene.solver.max_step, tolerance=scene.solver.tolerance)
+        self._build()
+        self.time = 0.0
+        self._state = self._initial_state()
+        self._substeps = 0
+        self._outputs = self._compute_outputs(self._state, 0.0, 0)
+
+    # ------------------------------------------------------------------ set-up
+    def _build(self) -> None:
+        sc = self.scene
+        order = sc.model.order
+        self.mesh = mesh = make_mesh(sc.geometry, sc.model.mesh_size, order)
+        lam, mu = sc.pendulum.lame
+        h, rho, g = sc.pendulum.thickness, sc.pendulum.rho, sc.gravity
+        self.V = V = VectorH1(mesh, order=order)
+        Q = NumberSpace(mesh, definedon=mesh.Boundaries("hinge"))
+        self.X = X = V * Q * Q
+        (u, q1, q2), (du, p1, p2) = X.TnT()
+        self.w = GridFunction(X)
+        self.u0 = GridFunction(V)
+        self.v0 = GridFunction(V)
+        self.dt = Parameter(1e-3)
+        self.torque_load = Parameter(0.0)
+
+        F0 = material.deformation_gradient(self.u0)
+        F1 = material.deformation_gradient(u)
+        Fm = 0.5 * (F0 + F1)
+        C0, C1 = material.right_cauchy_green(F0), material.right_cauchy_green(F1)
+        dg_points = 1 if sc.pendulum.E / sc.pendulum.rho > 1e5 else 2
+        S = material.averaged_pk2_stress(C0, C1, lam, mu, dg_points)
+        gvec = CF((0.0, -g))
+        dt = self.dt
+        a = BilinearForm(X)
+        a += (rho * h * (2.0 / (dt * dt)) * InnerProduct(u - self.u0 - dt * self.v0, du)
+              + h * InnerProduct(Fm * S, Grad(du))
+              - rho * h * InnerProduct(gvec, du)).Compile() * ngs.dx
+        # hinge: mean displacement of the hinge edge is zero (Lagrange multipliers q1, q2)
+        a += (q1 * du[0] + q2 * du[1] + p1 * u[0] + p2 * u[1]) * ngs.ds("hinge")
+        # follower torque: line load p(X) * Cof(F_mid) N on the hinge edge, moment = torque
+        N = specialcf.normal(2)
+        weight = x / sc.geometry.rod_half_width
+        arm = x * N[1] - y * N[0]
+        self._torque_scale = 1.0 / Integrate(weight * arm, mesh, BND, definedon=mesh.Boundaries("hinge"))
+        Fm_b = Id(2) + 0.5 * (Grad(u).Trace() + Grad(self.u0).Trace())
+        a += -InnerProduct(self.torque_load * weight * (Cof(Fm_b) * N), du) * ngs.ds("hinge")
+        # wall contact on the head's outer boundary
+        self.contact_on = sc.wall.kind == "rigid" and sc.contact.stiffness > 0
+        pos = CF((x, y))
+        self._contact_order = 2 * order + 40
+        if self.contact_on:
+            k = sc.contact.stiffness
+            force = wall_contact.discrete_gradient_force(pos + self.u0, pos + u, sc.block, k)
+            # assembled only on head elements that can reach the block within the step
+            self._active = ngs.BitArray(mesh.GetNE(BND))
+            self._active.Clear()
+            a += (-h * InnerProduct(force, du)).Compile() * ngs.ds(
+                "head", bonus_intorder=self._contact_order - 2 * order, definedonelements=self._active)
+        self.a = a
+        self.freedofs = X.FreeDofs()
+        self._inverse = None
+        self._res = self.w.vec.CreateVector()
+
+        # linear functionals and matrices for outputs (assembled once)
+        self.gf_u = GridFunction(V)
+        self.gf_v = GridFunction(V)
+        uu, vv = V.TnT()
+        self.mass = BilinearForm(rho * h * InnerProduct(uu, vv) * ngs.dx).Assemble().mat
+        self.cross = BilinearForm(rho * h * (uu[0] * vv[1] - uu[1] * vv[0]) * ngs.dx).Assemble().mat
+        self.l_pot = LinearForm(rho * h * g * vv[1] * ngs.dx).Assemble().vec.FV().NumPy().copy()
+        self.l_pos = LinearForm(rho * h * InnerProduct(pos, vv) * ngs.dx).Assemble().vec.FV().NumPy().copy()
+        self.l_rot = LinearForm(rho * h * (x * vv[1] - y * vv[0]) * ngs.dx).Assemble().vec.FV().NumPy().copy()
+        self.pot0 = Integrate(rho * h * g * y, mesh)
+        self.inertia0 = Integrate(rho * h * (x * x + y * y), mesh)
+        self.total_mass = Integrate(rho * h, mesh)
+        self.com_depth = -Integrate(rho * h * y, mesh) / self.total_mass
+        F = material.deformation_gradient(self.gf_u)
+        self._strain_cf = h * material.energy_density(material.right_cauchy_green(F), lam, mu)
+        self._von_mises_cf = material.von_mises_plane_stress(F, lam, mu)
+        if self.contact_on:
+            d, grad = wall_contact.depth_and_gradient(pos + self.gf_u, sc.block)
+            self._contact_energy_cf = h * wall_contact.penalty_energy(d, sc.contact.stiffness)
+            self._contact_force_cf = h * IfPos_(d, sc.contact.stiffness * d, 0.0) * (-grad)
+        # points on the head boundary for the gap: positions X + u evaluated vectorised
+        rule = IntegrationRule(SEGM, self._contact_order)
+        self._head_points = mesh.MapToAllElements(rule, mesh.Boundaries("head"))
+        self._head_X = pos(self._head_points)
+        lengths = Integrate(CF(1.0), mesh, BND, element_wise=True).NumPy()
+        head_els = [el.nr for el in mesh.Elements(BND) if el.mat == "head"]
+        self._head_weights = np.concatenate([lengths[e] * np.array([ip.weight for ip in rule]) for e in head_els])
+        self._head_elements = np.array(head_els)
+        self._point_element = np.repeat(np.arange(len(head_els)), len(rule))
+        self._nV = V.ndof
+
+    def _initial_state(self) -> FemState:
+        th, om = self.scene.theta0, self.scene.omega0
+        c, s = math.cos(th), math.sin(th)
+        self.gf_u.Set(CF(((c - 1) * x - s * y, s * x + (c - 1) * y)))
+        self.gf_v.Set(CF((-om * (s * x + c * y), om * (c * x - s * y))))
+        return FemState(self.gf_u.vec.FV().NumPy().copy(), self.gf_v.vec.FV().NumPy().copy(),
+                        np.zeros(2), 0.0)
+
+    # ------------------------------------------------------------- one step
+    def step(self, xs: FemState, dt: float, torque: float) -> FemState | None:
+        """One energy-momentum midpoint step; None when Newton does not converge.
+
+        Newton with the Jacobian assembled once per step at the predictor and
+        reused for the following iterations (re-assembled only if they stall):
+        the Jacobian depends on the step's inputs alone, so a restored state
+        continues bit-identically."""
+        nV = self._nV
+        self.dt.Set(dt)
+        self.torque_load.Set(torque * self._torque_scale)
+        self.u0.vec.FV().NumPy()[:] = xs.u
+        self.v0.vec.FV().NumPy()[:] = xs.v
+        if self.contact_on:
+            self._mark_active_contact(xs, dt)
+        for _attempt in range(2):
+            u1 = self._solve(xs, dt)
+            if u1 is None:
+                return None
+            if not self.contact_on or self._contact_set_covers(u1):
+                break
+        else:
+            return None
+        v1 = 2.0 / dt * (u1 - xs.u) - xs.v
+        work = self._torque_work_increment(xs.u, u1, torque)
+        return FemState(u1, v1, self.w.vec.FV().NumPy()[nV:].copy(), xs.torque_work + work)
+
+    def _solve(self, xs: FemState, dt: float) -> np.ndarray | None:
+        nV = self._nV
+        wv = self.w.vec.FV().NumPy()
+        wv[:nV] = xs.u + dt * xs.v
+        wv[nV:] = xs.lam
+        res = self._res
+        scale = max(float(np.max(np.abs(dt * xs.v))), 1e-12)
+        assemble = True
+        last = math.inf
+        for _ in range(NEWTON_MAX_IT):
+            if assemble:
+                self.a.AssembleLinearization(self.w.vec)
+                if self._inverse is None:
+                    self._inverse = self.a.mat.Inverse(self.freedofs, inverse="umfpack")
+                else:
+                    self._inverse.Update()
+                assemble = False
+            self.a.Apply(self.w.vec, res)
+            corr = (self._inverse * res).Evaluate()
+            cv = corr.FV().NumPy()
+            if not np.all(np.isfinite(cv)):
+                return None
+            self.w.vec.data -= corr
+            size = float(np.max(np.abs(cv[:nV])))
+            if size <= 1e-10 * scale + 1e-15:
+                return wv[:nV].copy()
+            if size > 0.25 * last:  # slow contraction: refresh the Jacobian
+                assemble = True
+            last = size
+        return None
+
+    def _mark_active_contact(self, xs: FemState, dt: float) -> None:
+        """Activate contact on head elements whose points could reach the block during the step."""
+        p = self._head_positions(xs.u)
+        dist, _, _ = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self.scene.block)
+        self.gf_v.vec.FV().NumPy()[:] = xs.v
+        speed = np.hypot(*self.gf_v(self._head_points).T)
+        reach = 3.0 * float(np.max(speed)) * dt + 1e-4
+        self._set_active(np.unique(self._point_element[dist < reach]))
+
+    def _set_active(self, elements: np.ndarray) -> None:
+        self._active.Clear()
+        for e in self._head_elements[elements]:
+            self._active.Set(int(e))
+        self._active_local = set(int(i) for i in elements)
+
+    def _contact_set_covers(self, u1: np.ndarray) -> bool:
+        """True if every head point inside the block at the step's end was in the active set; else widen it."""
+        p = self._head_positions(u1)
+        dist, _, _ = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self.scene.block)
+        touching = set(int(i) for i in np.unique(self._point_element[dist < 0.0]))
+        missing = touching - self._active_local
+        if not missing:
+            return True
+        self._set_active(np.array(sorted(self._active_local | missing), dtype=int))
+        return False
+
+    def _torque_work_increment(self, u0: np.ndarray, u1: np.ndarray, torque: float) -> float:
+        if torque == 0.0:
+            return 0.0
+        self.gf_u.vec.FV().NumPy()[:] = 0.5 * (u0 + u1)
+        self.gf_v.vec.FV().NumPy()[:] = u1 - u0
+        Fb = Id(2) + Grad(self.gf_u).Trace()
+        load = torque * self._torque_scale * (x / self.scene.geometry.rod_half_width) * (Cof(Fb) * specialcf.normal(2))
+        return float(Integrate(InnerProduct(load, self.gf_v), self.mesh, BND, definedon=self.mesh.Boundaries("hinge")))
+
+    # ------------------------------------------------------ contact geometry
+    def _head_positions(self, u: np.ndarray) -> np.ndarray:
+        self.gf_u.vec.FV().NumPy()[:] = u
+        return self._head_X + self.gf_u(self._head_points)
+
+    def gap_and_rate(self, xs: FemState) -> tuple[float, float]:
+        p = self._head_positions(xs.u)
+        dist, nx, ny = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self.scene.block)
+        i = int(np.argmin(dist))
+        self.gf_v.vec.FV().NumPy()[:] = xs.v
+        vel = self.gf_v(self._head_points)[i]
+        return float(dist[i]), float(nx[i] * vel[0] + ny[i] * vel[1])
+
+    def contact_scales(self, xs: FemState) -> tuple[float, float]:
+        """Contact duration and depth estimated from the rigid-body effective mass at the closest point."""
+        if not self.contact_on:
+            return math.inf, 0.0
+        p = self._head_positions(xs.u)
+        dist, nx, ny = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self.scene.block)
+        i = int(np.argmin(dist))
+        self.gf_v.vec.FV().NumPy()[:] = xs.v
+        vel = self.gf_v(self._head_points)[i]
+        rate = nx[i] * vel[0] + ny[i] * vel[1]
+        lever = abs(p[i, 0] * ny[i] - p[i, 1] * nx[i])
+        m_eff = self.inertia0 / max(lever, 1e-3 * self.scene.geometry.head_centre_depth) ** 2
+        return contact_time_scale(dist, self._head_weights, m_eff, rate, self.scene.contact.stiffness * self.scene.pendulum.thickness)
+
+    # ---------------------------------------------------------------- protocol
+    def advance(self, t_end: float, torque: float) -> Outputs:
+        check_advance_args(self.time, t_end, torque)
+        torque = float(torque)
+        with ngs.TaskManager(pajama_trace=False) if self.scene.model.threads > 1 else _nullcontext():
+            result = advance_steps(self, self._state, self.time, t_end, torque, self.control)
+        self._state = result.state
+        self.time = float(t_end)
+        self._outputs = self._compute_outputs(self._state, self.time, result.substeps)
+        return self._outputs
+
+    def outputs(self) -> Outputs:
+        return self._outputs
+
+    def get_state(self) -> ModelState:
+        s = self._state
+        return ModelState("fem", self.time, {"torque_work": s.torque_work, "substeps": float(self._outputs.substeps)},
+                          {"u": s.u.copy(), "v": s.v.copy(), "lam": s.lam.copy()})
+
+    def set_state(self, state: ModelState) -> None:
+        if state.fidelity != "fem" or state.arrays.get("u", np.empty(0)).shape != (self._nV,):
+            raise ValueError(f"state of fidelity {state.fidelity!r} does not fit this fem model ({self._nV} displacement dofs)")
+        self._state = FemState(state.arrays["u"].copy(), state.arrays["v"].copy(), state.arrays["lam"].copy(),
+                               state.scalars["torque_work"])
+        self.time = state.time
+        self._outputs = self._compute_outputs(self._state, self.time, int(state.scalars.get("substeps", 0)))
+
+    # ----------------------------------------------------------------- outputs
+    def _compute_outputs(self, s: FemState, t: float, substeps: int) -> Outputs:
+        u, v = s.u, s.v
+        self.gf_u.vec.FV().NumPy()[:] = u
+        self.gf_v.vec.FV().NumPy()[:] = v
+        Mv = (self.mass * self.gf_v.vec).Evaluate().FV().NumPy()
+        kinetic = 0.5 * float(v @ Mv)
+        potential = self.pot0 + float(self.l_pot @ u)
+        # best-fit rigid rotation of the displacement, and angular velocity about the pivot
+        s_num = float(self.l_rot @ u)
+        c_num = self.inertia0 + float(self.l_pos @ u)
+        theta = math.atan2(s_num, c_num)
+        Cv = (self.cross * self.gf_v.vec).Evaluate().FV().NumPy()
+        Mu = (self.mass * self.gf_u.vec).Evaluate().FV().NumPy()
+        ang_mom = float(self.l_rot @ v) + float(u @ Cv)
+        inertia = self.inertia0 + 2.0 * float(self.l_pos @ u) + float(u @ Mu)
+        omega = ang_mom / inertia
+        strain = float(Integrate(self._strain_cf, self.mesh, order=2 * self.scene.model.order + 2))
+        if self.contact_on:
+            mat = self.mesh.Boundaries("head")
+            c_energy = float(Integrate(self._contact_energy_cf, self.mesh, BND, order=self._contact_order, definedon=mat))
+            fvec = Integrate(self._contact_force_cf, self.mesh, BND, order=self._contact_order, definedon=mat)
+            c_force = float(math.hypot(fvec[0], fvec[1]))
+        else:
+            c_energy = c_force = 0.0
+        gap, _ = self.gap_and_rate(s)
+        vm = 0.0
+        if self.scene.model.compute_stress:
+            self.gf_u.vec.FV().NumPy()[:] = u
+            vm = float(np.max(self._von_mises_cf(self.mesh.MapToAllElements(IntegrationRule(ngs.TRIG, 4), VOL))))
+        total = kinetic + potential + strain + c_energy
+        return Outputs(time=t, theta=theta, omega=omega, gap=gap, contact_force=c_force, kinetic=kinetic,
+                       potential=potential, strain=strain, contact=c_energy, total=total,
+                       torque_work=s.torque_work, von_mises_max=vm, substeps=substeps)
+
+
+def IfPos_(c, a, b):
+    return ngs.IfPos(c, a, b)
+
+
+class _nullcontext:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+def contact_time_scale(gaps: np.ndarray, weights: np.ndarray, m_eff: float, rate: float, k_line: float) -> tuple[float, float]:
+    """(duration, largest depth) of the contact now in view, from the penalty law on sampled points.
+
+    The points are pushed rigidly by a depth delta along the normal: E(delta) =
+    k_line/2 * sum w_i max(delta - g_i + g_min, 0)^2 ... measured from the
+    present state; delta_max balances the normal energy available, and the
+    duration is pi sqrt(m_eff / K_sec) with K_sec = 2 E(delta_max) / delta_max^2."""
+    g_min = float(np.min(gaps))
+    pen = np.maximum(-gaps, 0.0)
+    e_now = 0.5 * k_line * float(weights @ (pen * pen))
+    e_avail = e_now + 0.5 * m_eff * (min(rate, 0.0) ** 2 if g_min > 0 else rate * rate)
+    if e_avail <= 0.0:
+        return math.inf, 0.0
+    rel = gaps - g_min  # how far each point is behind the closest one
+
+    def energy(delta: float) -> float:
+        d = np.maximum(delta - rel, 0.0)
+        return 0.5 * k_line * float(weights @ (d * d))
+
+    lo, hi = 0.0, max(-g_min, 1e-9)
+    while energy(hi) < e_avail:
+        hi *= 2.0
+        if hi > 1.0:
+            return math.inf, 0.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if energy(mid) < e_avail:
+            lo = mid
+        else:
+            hi = mid
+    delta = hi
+    k_sec = 2.0 * energy(delta) / (delta * delta)
+    return math.pi * math.sqrt(m_eff / k_sec), delta
