@@ -60,6 +60,7 @@ class AdvanceResult(Generic[X]):
     state: X
     substeps: int
     rejected: int
+    min_gap: float  # smallest gap seen at the internal steps of this advance (contacts between communication points)
 
 
 def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float,
@@ -68,9 +69,11 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float,
     n_contact = control.steps_per_contact
     substeps = rejected = 0
     dt_cap = control.max_step  # lowered after a failed solve, grows back on success
+    min_gap = math.inf
     while t_end - t > 0.0:
         remaining = t_end - t
         gap, rate = model.gap_and_rate(x)
+        min_gap = min(min_gap, gap)
         t_contact, d_max = model.contact_scales(x)
         dt_contact = t_contact / n_contact
         pen_tol = d_max / n_contact
@@ -94,7 +97,8 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float,
         t = t_end if dt >= remaining else t + dt
         substeps += 1
         dt_cap = min(control.max_step, 2.0 * dt_cap)
-    return AdvanceResult(x, substeps, rejected)
+    min_gap = min(min_gap, model.gap_and_rate(x)[0])
+    return AdvanceResult(x, substeps, rejected, min_gap)
 
 
 def _step_locating_onset(model, x, dt, torque, gap0, pen_tol, dt_contact, control):
