@@ -12,14 +12,24 @@ from netgen.occ import X, Y, Circle, Compound, MoveTo, OCCGeometry
 from .scene import PendulumGeometry, WallBlock
 
 
-def pendulum_shape(geo: PendulumGeometry):
-    """The pendulum hanging straight down from the pivot at the origin."""
+def pendulum_shape(geo: PendulumGeometry, refine_like_seed: bool = False):
+    """The pendulum hanging straight down from the pivot at the origin.
+
+    refine_like_seed reproduces the seed tutorial's local mesh sizes (hinge
+    edge w/10, rod w/2, head and hole edges R/20, head face R/5), for
+    comparisons on the seed's own mesh."""
     w, d, R, r = geo.rod_half_width, geo.head_centre_depth, geo.head_radius, geo.hole_radius
     rod = MoveTo(-w, -d).Rectangle(2 * w, d).Face()
     rod.edges.Max(Y).name = "hinge"
     ring = Circle((0, -d), R).Face()
     ring.edges.name = "head"
     hole = Circle((0, -d), r).Face()
+    if refine_like_seed:
+        rod.edges.Max(Y).maxh = w / 10
+        rod.faces.maxh = w / 2
+        ring.edges.maxh = R / 20
+        ring.faces.maxh = R / 5
+        hole.edges.maxh = R / 20
     body = (rod + ring) - hole
     body.faces.name = "pendulum"
     return body
@@ -34,9 +44,10 @@ def wall_shape(block: WallBlock):
 
 
 def make_geometry(geo: PendulumGeometry, block: WallBlock | None = None,
-                  head_edge_size: float | None = None, wall_face_size: float | None = None) -> OCCGeometry:
+                  head_edge_size: float | None = None, wall_face_size: float | None = None,
+                  refine_like_seed: bool = False) -> OCCGeometry:
     """OCC geometry of the pendulum, and of the wall block when `block` is given."""
-    body = pendulum_shape(geo)
+    body = pendulum_shape(geo, refine_like_seed)
     if head_edge_size is not None:
         body.edges["head"].maxh = head_edge_size
     shapes = [body]
@@ -50,11 +61,12 @@ def make_geometry(geo: PendulumGeometry, block: WallBlock | None = None,
 
 
 def make_mesh(geo: PendulumGeometry, mesh_size: float, order: int, block: WallBlock | None = None,
-              head_edge_size: float | None = None, wall_face_size: float | None = None):
+              head_edge_size: float | None = None, wall_face_size: float | None = None,
+              refine_like_seed: bool = False):
     """A curved NGSolve mesh of the scene (order-`order` geometry)."""
     from ngsolve import Mesh
 
-    occ = make_geometry(geo, block, head_edge_size, wall_face_size)
+    occ = make_geometry(geo, block, head_edge_size, wall_face_size, refine_like_seed)
     mesh = Mesh(occ.GenerateMesh(maxh=mesh_size))
     mesh.Curve(max(order, 2))
     return mesh

@@ -42,13 +42,27 @@ class FemState:
     torque_work: float
 
 
+@dataclass
+class JacobianPoint:
+    """The inputs the held Newton Jacobian was assembled at: kept with the state so
+    that a restored model re-creates the very same matrix and continues bit-identically."""
+
+    u0: np.ndarray
+    v0: np.ndarray
+    w: np.ndarray
+    dt: float
+    torque: float
+    active: np.ndarray  # head elements with contact assembled (local indices)
+
+
 class FemModel:
     """The full-fidelity model (fidelity "fem")."""
 
     fidelity = "fem"
 
-    def __init__(self, scene: Scene):
+    def __init__(self, scene: Scene, refine_like_seed: bool = False):
         self.scene = validate(scene)
+        self._refine_like_seed = refine_like_seed
         ngs.SetNumThreads(scene.model.threads)
         self.control = StepControl(max_step=scene.solver.max_step, tolerance=scene.solver.tolerance)
         self._build()
@@ -64,7 +78,8 @@ class FemModel:
         self.deformable_wall = sc.wall.kind == "deformable"
         block = sc.block if self.deformable_wall else None
         self.mesh = mesh = make_mesh(sc.geometry, sc.model.mesh_size, order, block=block,
-                                     wall_face_size=DEFORMABLE_WALL_FACE_SIZE)
+                                     wall_face_size=DEFORMABLE_WALL_FACE_SIZE,
+                                     refine_like_seed=self._refine_like_seed)
         h, g = sc.pendulum.thickness, sc.gravity
         self.V = V = VectorH1(mesh, order=order, dirichlet="wall_fixed" if self.deformable_wall else "")
         Q = NumberSpace(mesh, definedon=mesh.Boundaries("hinge"))
@@ -132,6 +147,9 @@ class FemModel:
         self.freedofs = X.FreeDofs()
         self._inverse = self._inverse_of = None
         self._inverse_nze = -1
+        self._jac: JacobianPoint | None = None
+        self._jac_ready = False
+        self._active_local: set[int] = set()
         self._res = self.w.vec.CreateVector()
 
         # linear functionals and matrices for outputs (assembled once)
@@ -189,21 +207,17 @@ class FemModel:
     def step(self, xs: FemState, dt: float, torque: float) -> FemState | None:
         """One energy-momentum midpoint step; None when Newton does not converge.
 
-        Newton with the Jacobian assembled once per step at the predictor and
-        reused for the following iterations (re-assembled only if they stall):
-        the Jacobian depends on the step's inputs alone, so a restored state
-        continues bit-identically."""
+        Modified Newton: the Jacobian is kept from step to step while the step
+        size stays the same and the iterations contract fast, and re-assembled
+        (numeric re-factorisation only) when they do not."""
         nV = self._nV
-        self.dt.Set(dt)
-        self.torque_load.Set(torque * self._torque_scale)
-        self.u0.vec.FV().NumPy()[:] = xs.u
-        self.v0.vec.FV().NumPy()[:] = xs.v
+        self._set_step_inputs(xs.u, xs.v, dt, torque)
         if self.contact_on:
             self._mark_active_contact(xs, dt)
         if self._wall_contact is not None:
             self._wall_contact.Update(self.u0, self.a, intorder=WALL_CONTACT_INTORDER, maxdist=WALL_SEARCH_DISTANCE)
         for _attempt in range(2):
-            u1 = self._solve(xs, dt)
+            u1 = self._solve(xs, dt, torque)
             if u1 is None:
                 return None
             if not self.contact_on or self._contact_set_covers(u1):
@@ -214,26 +228,64 @@ class FemModel:
         work = self._torque_work_increment(xs.u, u1, torque)
         return FemState(u1, v1, self.w.vec.FV().NumPy()[nV:].copy(), xs.torque_work + work)
 
-    def _solve(self, xs: FemState, dt: float) -> np.ndarray | None:
+    def _set_step_inputs(self, u0: np.ndarray, v0: np.ndarray, dt: float, torque: float) -> None:
+        self.dt.Set(dt)
+        self.torque_load.Set(torque * self._torque_scale)
+        self.u0.vec.FV().NumPy()[:] = u0
+        self.v0.vec.FV().NumPy()[:] = v0
+
+    def _factorise(self) -> None:
+        """Assemble the Jacobian at the current inputs and w, and factorise it."""
+        self.a.AssembleLinearization(self.w.vec)
+        mat = self.a.mat
+        if self._inverse is None or mat is not self._inverse_of or mat.nze != self._inverse_nze:
+            # new matrix or new graph (contact pairs of the deformable wall): full factorisation
+            self._inverse = mat.Inverse(self.freedofs, inverse="umfpack")
+            self._inverse_of, self._inverse_nze = mat, mat.nze
+        else:
+            self._inverse.Update()  # same graph: numeric re-factorisation only
+
+    def _refresh_jacobian(self, xs: FemState, dt: float, torque: float) -> None:
+        self._jac = JacobianPoint(xs.u.copy(), xs.v.copy(), self.w.vec.FV().NumPy().copy(), dt, torque,
+                                  np.array(sorted(self._active_local), dtype=int))
+        self._factorise()
+        self._jac_ready = True
+
+    def _rebuild_held_jacobian(self, xs: FemState, dt: float, torque: float) -> None:
+        """Re-create the held Jacobian (after set_state) at its recorded inputs, then restore the step's."""
+        jp = self._jac
+        w_now = self.w.vec.FV().NumPy().copy()
+        active_now = np.array(sorted(self._active_local), dtype=int)
+        self._set_step_inputs(jp.u0, jp.v0, jp.dt, jp.torque)
+        if self.contact_on:
+            self._set_active(jp.active)
+        if self._wall_contact is not None:
+            self._wall_contact.Update(self.u0, self.a, intorder=WALL_CONTACT_INTORDER, maxdist=WALL_SEARCH_DISTANCE)
+        self.w.vec.FV().NumPy()[:] = jp.w
+        self._factorise()
+        self._jac_ready = True
+        self._set_step_inputs(xs.u, xs.v, dt, torque)
+        if self.contact_on:
+            self._set_active(active_now)
+        if self._wall_contact is not None:
+            self._wall_contact.Update(self.u0, self.a, intorder=WALL_CONTACT_INTORDER, maxdist=WALL_SEARCH_DISTANCE)
+        self.w.vec.FV().NumPy()[:] = w_now
+
+    def _solve(self, xs: FemState, dt: float, torque: float) -> np.ndarray | None:
         nV = self._nV
         wv = self.w.vec.FV().NumPy()
         wv[:nV] = xs.u + dt * xs.v
         wv[nV:] = xs.lam
         res = self._res
         scale = max(float(np.max(np.abs(dt * xs.v))), 1e-12)
-        assemble = True
+        if self._jac is not None and not self._jac_ready:
+            self._rebuild_held_jacobian(xs, dt, torque)
+        refresh = self._jac is None or self._jac.dt != dt
         last = math.inf
         for _ in range(NEWTON_MAX_IT):
-            if assemble:
-                self.a.AssembleLinearization(self.w.vec)
-                mat = self.a.mat
-                if self._inverse is None or mat is not self._inverse_of or mat.nze != self._inverse_nze:
-                    # new matrix or new graph (contact pairs of the deformable wall): full factorisation
-                    self._inverse = mat.Inverse(self.freedofs, inverse="umfpack")
-                    self._inverse_of, self._inverse_nze = mat, mat.nze
-                else:
-                    self._inverse.Update()  # same graph: numeric re-factorisation only
-                assemble = False
+            if refresh:
+                self._refresh_jacobian(xs, dt, torque)
+                refresh = False
             self.a.Apply(self.w.vec, res)
             corr = (self._inverse * res).Evaluate()
             cv = corr.FV().NumPy()
@@ -244,7 +296,7 @@ class FemModel:
             if size <= 1e-10 * scale + 1e-15:
                 return wv[:nV].copy()
             if size > 0.25 * last:  # slow contraction: refresh the Jacobian
-                assemble = True
+                refresh = True
             last = size
         return None
 
@@ -351,14 +403,25 @@ class FemModel:
 
     def get_state(self) -> ModelState:
         s = self._state
-        return ModelState("fem", self.time, {"torque_work": s.torque_work, "substeps": float(self._outputs.substeps)},
-                          {"u": s.u.copy(), "v": s.v.copy(), "lam": s.lam.copy()})
+        scalars = {"torque_work": s.torque_work, "substeps": float(self._outputs.substeps)}
+        arrays = {"u": s.u.copy(), "v": s.v.copy(), "lam": s.lam.copy()}
+        if self._jac is not None:
+            jp = self._jac
+            scalars.update(jac_dt=jp.dt, jac_torque=jp.torque)
+            arrays.update(jac_u0=jp.u0.copy(), jac_v0=jp.v0.copy(), jac_w=jp.w.copy(), jac_active=jp.active.copy())
+        return ModelState("fem", self.time, scalars, arrays)
 
     def set_state(self, state: ModelState) -> None:
         if state.fidelity != "fem" or state.arrays.get("u", np.empty(0)).shape != (self._nV,):
             raise ValueError(f"state of fidelity {state.fidelity!r} does not fit this fem model ({self._nV} displacement dofs)")
-        self._state = FemState(state.arrays["u"].copy(), state.arrays["v"].copy(), state.arrays["lam"].copy(),
-                               state.scalars["torque_work"])
+        arr, sc = state.arrays, state.scalars
+        self._state = FemState(arr["u"].copy(), arr["v"].copy(), arr["lam"].copy(), sc["torque_work"])
+        if "jac_w" in arr:
+            self._jac = JacobianPoint(arr["jac_u0"].copy(), arr["jac_v0"].copy(), arr["jac_w"].copy(),
+                                      sc["jac_dt"], sc["jac_torque"], arr["jac_active"].astype(int))
+        else:
+            self._jac = None
+        self._jac_ready = False
         self.time = state.time
         self._outputs = self._compute_outputs(self._state, self.time, int(state.scalars.get("substeps", 0)))
 
