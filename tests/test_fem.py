@@ -204,3 +204,13 @@ def test_deformable_wall_impact_is_finite_and_keeps_energy():
     assert out[:, 4].min() < 0  # the impact happened inside the window
     assert np.max(np.abs(out[:, 5] - e0)) <= 10 * 1e-3 * swing_energy(model)
     assert out[-1, 2] > 0  # and the pendulum rebounds
+
+
+def test_von_mises_only_when_asked_and_plausible():
+    quiet = create(compliant())
+    asked = create(compliant(**{"model.compute_stress": True}))
+    a, b = quiet.advance(0.01, 0.0), asked.advance(0.01, 0.0)
+    assert a.von_mises_max == 0.0
+    # rubber hanging under its own weight: stress of the order rho g L (a few kPa), far below E
+    assert 1e2 < b.von_mises_max < 1e5, b.von_mises_max
+    assert b.theta == a.theta  # asking for stress does not change the dynamics

@@ -1,0 +1,142 @@
+"""Reads modelDescription.template.xml, the one declaration of the FMI interface.
+
+The slave registers its variables from it, build_fmu.py renders it into the
+FMU's modelDescription.xml, and `python -m fem_pendulum_fmu.interface
+--markdown` prints the README's variable table from it.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+TEMPLATE_NAME = "modelDescription.template.xml"
+
+
+@dataclass(frozen=True)
+class Variable:
+    name: str
+    value_reference: int
+    type: str  # Real, Integer, Boolean, Enumeration
+    causality: str
+    variability: str
+    description: str
+    start: float | int | bool | None = None
+    unit: str | None = None
+    display_unit: str | None = None
+    declared_type: str | None = None
+    items: tuple[str, ...] = field(default=())  # enumeration item names, in value order 1, 2, ...
+
+    def item_name(self, value: int) -> str:
+        """Enumeration value -> item name; ValueError naming the allowed values."""
+        if not 1 <= int(value) <= len(self.items):
+            allowed = ", ".join(f"{i} ({n})" for i, n in enumerate(self.items, 1))
+            raise ValueError(f"parameter {self.name} = {value!r} is not allowed: choose one of {allowed}")
+        return self.items[int(value) - 1]
+
+
+@dataclass(frozen=True)
+class Interface:
+    model_identifier: str
+    variables: tuple[Variable, ...]
+    start_time: float
+    stop_time: float
+    step_size: float
+
+    def by_name(self, name: str) -> Variable:
+        for v in self.variables:
+            if v.name == name:
+                return v
+        raise KeyError(name)
+
+    def of_causality(self, causality: str) -> tuple[Variable, ...]:
+        return tuple(v for v in self.variables if v.causality == causality)
+
+
+def template_path(resources: str | os.PathLike | None = None) -> Path:
+    """The template inside an FMU's resources folder, else next to the package (source checkout)."""
+    candidates = []
+    if resources:
+        candidates.append(Path(resources) / TEMPLATE_NAME)
+    if os.environ.get("FEM_PENDULUM_TEMPLATE"):
+        candidates.append(Path(os.environ["FEM_PENDULUM_TEMPLATE"]))
+    here = Path(__file__).resolve().parent
+    candidates += [here.parent / TEMPLATE_NAME, here / TEMPLATE_NAME]
+    for path in candidates:
+        if path.is_file():
+            return path
+    raise FileNotFoundError(f"{TEMPLATE_NAME} not found; looked in: {', '.join(map(str, candidates))}")
+
+
+def _start(typ: str, text: str | None):
+    if text is None:
+        return None
+    if typ == "Real":
+        return float(text)
+    if typ == "Boolean":
+        return text.strip().lower() in ("true", "1")
+    return int(text)
+
+
+@lru_cache(maxsize=8)
+def _parse(path: str) -> Interface:
+    root = ET.parse(path).getroot()
+    enums = {}
+    for st in root.iter("SimpleType"):
+        en = st.find("Enumeration")
+        if en is not None:
+            items = sorted(en.findall("Item"), key=lambda it: int(it.get("value")))
+            enums[st.get("name")] = tuple(it.get("name") for it in items)
+    variables = []
+    for sv in root.find("ModelVariables").findall("ScalarVariable"):
+        (typed,) = list(sv)
+        declared = typed.get("declaredType")
+        variables.append(Variable(
+            name=sv.get("name"), value_reference=int(sv.get("valueReference")), type=typed.tag,
+            causality=sv.get("causality", "local"), variability=sv.get("variability", "continuous"),
+            description=sv.get("description", ""), start=_start(typed.tag, typed.get("start")),
+            unit=typed.get("unit"), display_unit=typed.get("displayUnit"), declared_type=declared,
+            items=enums.get(declared, ())))
+    de = root.find("DefaultExperiment")
+    return Interface(root.find("CoSimulation").get("modelIdentifier"), tuple(variables),
+                     float(de.get("startTime")), float(de.get("stopTime")), float(de.get("stepSize")))
+
+
+def load(resources: str | os.PathLike | None = None) -> Interface:
+    return _parse(str(template_path(resources)))
+
+
+def render(guid: str, date: str, version: str, path: Path | None = None) -> str:
+    """The template's text with its placeholders filled: the FMU's modelDescription.xml."""
+    text = (path or template_path()).read_text()
+    return text.replace("{{GUID}}", guid).replace("{{DATE}}", date).replace("{{VERSION}}", version)
+
+
+def markdown_table(interface: Interface | None = None) -> str:
+    """The variable table for the README."""
+    interface = interface or load()
+    rows = ["| name | causality | type | unit | start | description |", "|---|---|---|---|---|---|"]
+    for v in interface.variables:
+        unit = (v.unit or "") + (f" (display {v.display_unit})" if v.display_unit else "")
+        typ = f"Enumeration ({', '.join(v.items)})" if v.items else v.type
+        start = "" if v.start is None else (v.items[v.start - 1] if v.items else f"{v.start:g}" if v.type == "Real" else str(v.start))
+        rows.append(f"| `{v.name}` | {v.causality} | {typ} | {unit} | {start} | {v.description} |")
+    return "\n".join(rows)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description="Print the FMI interface declared in the template.")
+    parser.add_argument("--markdown", action="store_true", help="print the README's variable table")
+    args = parser.parse_args()
+    if args.markdown:
+        print(markdown_table())
+    else:
+        for v in load().variables:
+            print(v.value_reference, v.name, v.causality, v.type, v.unit or "", v.start)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,244 @@
+"""The FMI 2.0 co-simulation slave: glue between pythonfmu and a model, no physics.
+
+Variables are registered from the template (interface.py), so the
+modelDescription and the slave cannot drift. pythonfmu 0.7.0 turns every
+Python exception into fmi2Fatal (and a fatal instance may take the host down
+on its next call), so nothing here raises into the host: invalid input is
+logged with status error and the doStep it would affect returns fmi2Discard,
+leaving the state unchanged; a parameter set after initialisation is logged
+and ignored. The FMU's entry script subclasses `PendulumSlave` (see
+fem_pendulum_fmu_entry.py).
+"""
+from __future__ import annotations
+
+import io
+import json
+import logging
+import math
+import time
+from typing import Any
+
+import numpy as np
+from pythonfmu import Fmi2Slave
+from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability
+from pythonfmu.variables import Boolean, Integer, Real
+
+from . import interface as fmi_interface
+from .models import StepFailed, create
+from .models.base import ModelState
+from .scene import Scene
+
+LOG = logging.getLogger("fem_pendulum_fmu")
+
+# FMI output name -> models.base.Outputs field
+OUTPUT_FIELDS = {
+    "theta": "theta", "omega": "omega", "gap": "gap", "contact_force": "contact_force",
+    "energy.kinetic": "kinetic", "energy.potential": "potential", "energy.strain": "strain",
+    "energy.contact": "contact", "energy.total": "total", "energy.torque_work": "torque_work",
+    "stress.von_mises_max": "von_mises_max", "solver.substeps": "substeps",
+}
+# Integer aliases of enumerations for masters that cannot set enumerations (libcosim)
+ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}
+_PY_TYPES = {"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean": Boolean}
+_TIME_TOL = 1e-9
+
+
+class _FmiLogHandler(logging.Handler):
+    """Forwards the package's Python log records to one instance's FMI logger."""
+
+    def __init__(self, slave: "PendulumSlave"):
+        super().__init__(logging.DEBUG)
+        self.slave = slave
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if record.levelno >= logging.ERROR:
+            status = Fmi2Status.error
+        elif record.levelno >= logging.WARNING:
+            status = Fmi2Status.warning
+        else:
+            status = Fmi2Status.ok
+        self.slave.log(record.getMessage(), status, None if status != Fmi2Status.ok else "logAll")
+
+
+class PendulumSlave(Fmi2Slave):
+    author = "fem_pendulum_fmu developers"
+    description = "Nonlinear FE pendulum hitting a wall"
+
+    def __init__(self, **kwargs: Any):
+        super().__init__(**kwargs)
+        self.interface = fmi_interface.load(self.resources)
+        self.values: dict[str, Any] = {}
+        self.torque = 0.0
+        self.model = None
+        self.outputs = None
+        self.init_error: str | None = None
+        self.initialised = False
+        self.terminated = False
+        self.time = self.interface.start_time
+        self.init_seconds = math.nan
+        self._handler = _FmiLogHandler(self)
+        for var in self.interface.variables:
+            self._register(var)
+
+    # ------------------------------------------------------------ registration
+    def _register(self, var: fmi_interface.Variable) -> None:
+        name = var.name
+        if var.causality == "parameter":
+            self.values[name] = var.start
+            getter = lambda n=name: self.values[n]  # noqa: E731
+            setter = lambda value, n=name: self._set_parameter(n, value)  # noqa: E731
+        elif var.causality == "input":
+            self.torque = float(var.start or 0.0)
+            getter = lambda: self.torque  # noqa: E731
+            setter = self._set_torque
+        else:
+            field = OUTPUT_FIELDS[name]
+            getter = lambda f=field: getattr(self.outputs, f) if self.outputs is not None else 0  # noqa: E731
+            setter = None
+        cls = _PY_TYPES[var.type]
+        kwargs = dict(causality=Fmi2Causality[var.causality], variability=Fmi2Variability[var.variability],
+                      description=var.description, getter=getter, setter=setter)
+        if var.causality == "parameter":
+            kwargs["initial"] = Fmi2Initial.exact
+        if var.start is not None:
+            kwargs["start"] = var.start
+        self.register_variable(cls(name, **kwargs), nested=False)
+        registered = list(self.vars.keys())[-1]
+        if registered != var.value_reference:
+            raise RuntimeError(f"value reference of {name} is {registered}, the template says {var.value_reference}")
+
+    # ----------------------------------------------------------------- setters
+    def _set_parameter(self, name: str, value: Any) -> None:
+        if self.initialised:
+            self._error(f"parameter {name} cannot be set after initialisation (value {value!r} ignored; "
+                        f"it stays {self.values[name]!r})")
+            return
+        self.values[name] = value
+
+    def _set_torque(self, value: float) -> None:
+        self.torque = float(value)  # validated at doStep, where the error can be reported as Discard
+
+    def _error(self, msg: str) -> None:
+        self.log(msg, Fmi2Status.error)
+
+    # -------------------------------------------------------------- life cycle
+    def scene(self) -> Scene:
+        """The scene the parameter values describe (enumerations mapped to their item names)."""
+        values = {}
+        for var in self.interface.of_causality("parameter"):
+            if var.name in ENUM_ALIASES:
+                continue
+            value = self.values[var.name]
+            if var.items:
+                value = var.item_name(value)
+            elif var.type == "Real":
+                value = float(value)
+            elif var.type == "Integer":
+                value = int(value)
+            elif var.type == "Boolean":
+                value = bool(value)
+            values[var.name] = value
+        for alias, target in ENUM_ALIASES.items():
+            index = int(self.values[alias])
+            if index != 0:
+                values[target] = self.interface.by_name(target).item_name(index)
+        return Scene().with_values(values)
+
+    def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None):
+        self.time = float(start_time)
+
+    def exit_initialization_mode(self):
+        t0 = time.perf_counter()
+        self.initialised = True
+        with self._logging():
+            try:
+                self.model = create(self.scene())
+            except (ValueError, KeyError) as exc:
+                self.init_error = f"invalid parameters: {exc}"
+                self._error(self.init_error)
+                return
+            self.model.time = self.time
+            self.outputs = self.model.outputs()
+        self.init_seconds = time.perf_counter() - t0
+        LOG.debug("initialised %s in %.3f s", type(self.model).__name__, self.init_seconds)
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        if self.init_error is not None:
+            self._error(f"doStep refused: {self.init_error}")
+            return False
+        if self.model is None or self.terminated:
+            self._error("doStep refused: the FMU is " + ("terminated" if self.terminated else "not initialised"))
+            return False
+        if not (math.isfinite(step_size) and step_size > 0):
+            self._error(f"doStep refused: communication step size {step_size!r} must be a finite number > 0")
+            return False
+        if abs(current_time - self.model.time) > _TIME_TOL * max(1.0, abs(current_time)):
+            self._error(f"doStep refused: communication point {current_time!r} does not match the FMU's time "
+                        f"{self.model.time!r}")
+            return False
+        if not math.isfinite(self.torque):
+            self._error(f"doStep refused: torque = {self.torque!r} is not allowed, it must be a finite number (N.m)")
+            return False
+        with self._logging():
+            try:
+                self.outputs = self.model.advance(current_time + step_size, self.torque)
+            except StepFailed as exc:
+                self.log(f"doStep discarded at t = {current_time!r}, state kept: {exc}", Fmi2Status.discard)
+                return False
+            except Exception as exc:  # keep the host alive whatever happens in the model
+                self._error(f"doStep failed at t = {current_time!r} ({type(exc).__name__}: {exc}); state kept")
+                return False
+        return True
+
+    def terminate(self):
+        self.terminated = True
+
+    def _logging(self):
+        slave = self
+
+        class _Attached:
+            def __enter__(self):
+                LOG.addHandler(slave._handler)
+                if LOG.level == logging.NOTSET or LOG.level > logging.DEBUG:
+                    LOG.setLevel(logging.DEBUG)
+
+            def __exit__(self, *exc):
+                LOG.removeHandler(slave._handler)
+                return False
+
+        return _Attached()
+
+    # ---------------------------------------------------------------- FMU state
+    def _get_fmu_state(self) -> dict[str, Any]:
+        return {"model": self.model.get_state() if self.model is not None else None, "torque": self.torque,
+                "values": dict(self.values), "initialised": self.initialised}
+
+    def _set_fmu_state(self, state: dict[str, Any]) -> None:
+        if "error" in state:
+            self._error(f"FMU state not restored, the state is unchanged: {state['error']}")
+            return
+        if state["model"] is not None and self.model is not None:
+            self.model.set_state(state["model"].copy())
+            self.outputs = self.model.outputs()
+        self.torque = float(state["torque"])
+
+    @staticmethod
+    def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:
+        head = {"torque": state["torque"], "values": state["values"], "initialised": state["initialised"]}
+        model = state["model"].to_bytes() if state["model"] is not None else b""
+        buf = io.BytesIO()
+        np.savez(buf, head=np.frombuffer(json.dumps(head).encode(), dtype=np.uint8),
+                 model=np.frombuffer(model, dtype=np.uint8))
+        return buf.getvalue()
+
+    @staticmethod
+    def _fmu_state_from_bytes(data: bytes) -> dict[str, Any]:
+        """Never raises (that would be fmi2Fatal): corrupt bytes give {"error": ...}, refused by set."""
+        try:
+            with np.load(io.BytesIO(bytes(data)), allow_pickle=False) as npz:
+                head = json.loads(npz["head"].tobytes().decode())
+                model = npz["model"].tobytes()
+            head["model"] = ModelState.from_bytes(model) if model else None
+            return head
+        except Exception as exc:
+            return {"error": f"corrupt serialised FMU state ({type(exc).__name__}: {exc})"}
