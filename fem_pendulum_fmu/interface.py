@@ -130,8 +130,15 @@ def markdown_table(interface: Interface | None = None) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description="Print the FMI interface declared in the template.")
     parser.add_argument("--markdown", action="store_true", help="print the README's variable table")
+    parser.add_argument("--write-readme", type=Path, metavar="README", help="replace the table between the markers")
     args = parser.parse_args()
-    if args.markdown:
+    if args.write_readme:
+        text = args.write_readme.read_text()
+        start, end = "<!-- interface-table:start -->", "<!-- interface-table:end -->"
+        head, _, rest = text.partition(start)
+        _, _, tail = rest.partition(end)
+        args.write_readme.write_text(f"{head}{start}\n{markdown_table()}\n{end}{tail}")
+    elif args.markdown:
         print(markdown_table())
     else:
         for v in load().variables:

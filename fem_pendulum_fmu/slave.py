@@ -41,6 +41,12 @@ OUTPUT_FIELDS = {
 ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}
 _PY_TYPES = {"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean": Boolean}
 _TIME_TOL = 1e-9
+_PINNED: list = []
+
+
+def pin_module(module, references: int = 4096) -> None:
+    """Hold extra references to an FMU entry module (see fem_pendulum_fmu_entry.py)."""
+    _PINNED.extend([module] * references)
 
 
 class _FmiLogHandler(logging.Handler):

@@ -1,0 +1,298 @@
+"""Rigid pendulum (fidelity "rigid"): one rotation about the pivot, the same wall law as the FE model.
+
+Mass, centre of mass and moment of inertia are integrated over the very mesh
+geometry the FE model uses (geometry.make_mesh, fine and highly curved), so
+the two fidelities describe the same body. Contact is the penalty law of
+contact.py on the head's outer arc, integrated exactly by rigid_contact.py.
+
+Time integration is the one-DOF discrete gradient (energy-consistent
+midpoint) rule, with q = theta, V = gravity + contact energy:
+
+    (omega1 + omega0) / 2 = (q1 - q0) / dt
+    I (omega1 - omega0) / dt = T - (V(q1) - V(q0)) / (q1 - q0)
+
+so that kinetic + V changes by exactly T (q1 - q0) per step: impacts neither
+gain nor lose energy whatever the step, and the rebound angle is the release
+angle. Step sizes (contact onset, ~30 steps per contact) come from stepping.py.
+"""
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+from .. import rigid_contact
+from ..geometry import make_mesh
+from ..scene import PendulumGeometry, Scene, validate
+from ..stepping import StepControl, advance as advance_steps
+from .base import ModelState, Outputs, check_advance_args
+
+# Mesh for the mass properties: converged to ~1e-10 relative (0.005/order 5 agrees to 1e-10).
+MASS_MESH_SIZE = 0.004
+MASS_MESH_ORDER = 6
+
+NEWTON_MAX_IT = 80
+ENERGY_ROUNDOFF = 1e-15  # relative energy imbalance per step accepted as converged
+SMALL_STEP = 1e-9  # |q1 - q0| (rad) below which the contact difference quotient is replaced by a derivative
+APPROACH_SPEED_FLOOR = 1e-3  # m/s: a head at rest near the block is assumed to approach at least this fast
+NEAR_FRACTION = 1.0  # contact scales are reported while the gap is below this many head radii
+
+
+@lru_cache(maxsize=16)
+def geometry_moments(geo: PendulumGeometry) -> tuple[float, float, float, float]:
+    """(area, first moment int y dA, first moment int x dA, polar moment int x^2 + y^2 dA) of the
+    pendulum face. Times rho h these are mass, m y_com, m x_com and I about the pivot; they
+    depend on the geometry only, so they are computed once per geometry and process."""
+    from ngsolve import CF, Integrate, x, y
+
+    mesh = make_mesh(geo, MASS_MESH_SIZE, MASS_MESH_ORDER)
+    order = 2 * MASS_MESH_ORDER + 2
+    return (float(Integrate(CF(1.0), mesh, order=order)), float(Integrate(y, mesh, order=order)),
+            float(Integrate(x, mesh, order=order)), float(Integrate(x * x + y * y, mesh, order=order)))
+
+
+class RigidModel:
+    """The rigid fidelity (fidelity "rigid").
+
+    State: theta, omega and the torque work. Outputs: strain energy and
+    von_mises_max are always 0 (a rigid body neither stores strain energy nor
+    has a stress field worth reporting). theta is reported wrapped to
+    [-pi, pi] like the FE model's atan2 proxy; the internal angle is
+    continuous, so energies and steps do not notice the wrap.
+
+    wall.kind "none" (or contact.stiffness 0): no contact force; `gap` still
+    reports the geometric signed distance to the block so that a master sees
+    where the wall would be. wall.kind "deformable" is not offered (models.create
+    rejects it); constructing one directly raises ValueError.
+    """
+
+    fidelity = "rigid"
+
+    def __init__(self, scene: Scene):
+        self.scene = validate(scene)
+        if scene.wall.kind == "deformable":
+            raise ValueError("parameter wall.kind = 'deformable' is not available with model.fidelity = 'rigid': "
+                             "choose rigid or none, or model.fidelity = 'fem'")
+        geo, mat = scene.geometry, scene.pendulum
+        area, sy, sx, polar = geometry_moments(geo)
+        rho_h = mat.rho * mat.thickness
+        self.total_mass = rho_h * area
+        self.com_depth = -sy / area
+        self.inertia = rho_h * polar
+        self._mgd = self.total_mass * scene.gravity * self.com_depth
+        self.block = scene.block
+        self.contact_on = scene.wall.kind == "rigid" and scene.contact.stiffness > 0.0
+        self._hk = mat.thickness * scene.contact.stiffness
+        self._depth, self._radius = geo.head_centre_depth, geo.head_radius
+        if not 0.0 < geo.rod_half_width < geo.head_radius:
+            raise ValueError(f"geometry: rod_half_width {geo.rod_half_width!r} must lie in (0, head_radius {geo.head_radius!r})")
+        half_gap = math.asin(geo.rod_half_width / geo.head_radius)  # rod joint, seen from the head centre
+        self._arc_offset = 0.5 * math.pi + half_gap
+        self._arc_length = 2.0 * math.pi - 2.0 * half_gap
+        # energy law E = C delta^2.5 of a circle pressed into a flat face (delta << R)
+        self._flat_law = 8.0 / 15.0 * self._hk * math.sqrt(2.0 * self._radius)
+        self.control = StepControl(max_step=scene.solver.max_step, tolerance=scene.solver.tolerance)
+        self._memo: dict[float, tuple] = {}  # pure functions of the angle, so caching keeps runs deterministic
+        self._gap_memo: dict[float, tuple[float, float]] = {}
+        self.time = 0.0
+        self._x = (float(scene.theta0), float(scene.omega0), 0.0)
+        self.last_min_gap = math.inf
+        self._outputs = self._compute_outputs(self._x, 0.0, 0)
+        self.last_min_gap = self._outputs.gap
+
+    # -------------------------------------------------------------- geometry
+    def arc(self, theta: float) -> rigid_contact.Arc:
+        """The head's outer boundary (without the rod joint) at angle theta."""
+        D = self._depth
+        return rigid_contact.Arc(D * math.sin(theta), -D * math.cos(theta), self._radius,
+                                 theta + self._arc_offset, self._arc_length)
+
+    def _contact(self, q: float) -> tuple:
+        """(pieces, Penalty) at angle q, memoised: Newton and the stepper revisit the same angles."""
+        hit = self._memo.get(q)
+        if hit is not None:
+            return hit
+        D = self._depth
+        if not rigid_contact.circle_may_touch(D * math.sin(q), -D * math.cos(q), self._radius, self.block):
+            result = ((), rigid_contact.Penalty(0.0, 0.0, 0.0, 0.0, 0.0))
+        else:
+            arc = self.arc(q)
+            pieces = rigid_contact.inside_pieces(arc, self.block)
+            result = (pieces, rigid_contact.penalty(arc, self.block, self._hk, pieces))
+        if len(self._memo) > 64:
+            self._memo.clear()
+        self._memo[q] = result
+        return result
+
+    def contact_energy(self, theta: float) -> rigid_contact.Penalty:
+        """Contact energy, force and its theta-derivatives at angle theta (zeros without a wall)."""
+        if not self.contact_on:
+            return rigid_contact.Penalty(0.0, 0.0, 0.0, 0.0, 0.0)
+        return self._contact(float(theta))[1]
+
+    def geometric_gap(self, theta: float) -> tuple[float, float]:
+        """(signed gap, d gap / d theta) between the head's arc and the block."""
+        hit = self._gap_memo.get(theta)
+        if hit is None:
+            pieces = list(self._contact(theta)[0]) if self.contact_on else None
+            hit = rigid_contact.signed_gap(self.arc(theta), self.block, pieces)
+            if len(self._gap_memo) > 64:
+                self._gap_memo.clear()
+            self._gap_memo[theta] = hit
+        return hit
+
+    # ------------------------------------------------------------- stepping
+    def step(self, x: tuple, dt: float, torque: float) -> tuple | None:
+        """One discrete-gradient step; None when the scalar solve fails (the stepper halves dt)."""
+        q0, w0, work = x
+        u = self._solve(q0, w0, dt, torque)
+        if u is None:
+            return None
+        return (q0 + u, 2.0 * u / dt - w0, work + torque * u)
+
+    def _solve(self, q0: float, w0: float, dt: float, torque: float) -> float | None:
+        """The increment u = q1 - q0 solving G(u) = 0 (Newton, safeguarded by a bracket)."""
+        c = 2.0 * self.inertia / (dt * dt)
+        mgd = self._mgd
+        contact = self.contact_on
+        e0 = self._contact(q0)[1].energy if contact else 0.0
+
+        def residual(u: float) -> tuple[float, float]:
+            h = 0.5 * u
+            qm = q0 + h
+            # gravity difference quotient, cancellation-free: mgd sin(qm) sin(h)/h
+            if abs(h) > 1e-4:
+                sinc, dsinc = math.sin(h) / h, (h * math.cos(h) - math.sin(h)) / (h * h)
+            else:
+                h2 = h * h
+                sinc, dsinc = 1.0 - h2 / 6.0 + h2 * h2 / 120.0, h * (-1.0 / 3.0 + h2 / 30.0)
+            s_m, c_m = math.sin(qm), math.cos(qm)
+            quot = mgd * s_m * sinc
+            dquot = 0.5 * mgd * (c_m * sinc + s_m * dsinc)
+            if contact:
+                pen = self._contact(q0 + u)[1]
+                if abs(u) > SMALL_STEP:
+                    qc = (pen.energy - e0) / u
+                    dqc = (pen.d_energy - qc) / u if abs(u) > 1e-6 else 0.5 * pen.d2_energy
+                else:  # E'(midpoint) to O(u^2)
+                    qc = pen.d_energy - 0.5 * u * pen.d2_energy
+                    dqc = 0.5 * pen.d2_energy
+                quot += qc
+                dquot += dqc
+            return c * (u - dt * w0) - torque + quot, c + dquot
+
+        # predictor: explicit step with the force at q0
+        force0 = torque - mgd * math.sin(q0) - (self._contact(q0)[1].d_energy if contact else 0.0)
+        u = dt * w0 + 0.5 * dt * dt * force0 / self.inertia
+        scale = mgd + 0.5 * self.inertia * w0 * w0 + e0 + abs(torque * u)  # energies this step moves
+        lo, hi = -math.inf, math.inf
+        span = max(abs(u), dt * abs(w0), 1e-12)
+        for _ in range(NEWTON_MAX_IT):
+            g, dg = residual(u)
+            if not (math.isfinite(g) and math.isfinite(dg)):
+                return None
+            if g == 0.0:
+                return u
+            if g < 0.0:
+                lo = u
+            else:
+                hi = u
+            u_new = u - g / dg if dg > 0.0 else math.nan
+            if lo <= u_new <= hi:
+                du = abs(u_new - u)
+                # converged: to round-off in u, or the energy still unbalanced, c |du| |u|,
+                # is at round-off of the energies (the contact energy carries relative noise
+                # ~1e-11 from the positions' round-off, which bounds how far u can settle)
+                if du <= 1e-15 * abs(u_new) + 1e-20 or c * du * abs(u_new) <= ENERGY_ROUNDOFF * scale:
+                    return u_new
+            if not lo < u_new < hi:  # Newton left the bracket (or G' <= 0): bisect or widen
+                if math.isfinite(lo) and math.isfinite(hi):
+                    u_new = 0.5 * (lo + hi)
+                    if u_new == lo or u_new == hi:
+                        return u_new  # bracket exhausted at round-off
+                else:
+                    span *= 2.0
+                    u_new = u + span if g < 0.0 else u - span
+            u = u_new
+        return None
+
+    def gap_and_rate(self, x: tuple) -> tuple[float, float]:
+        """Signed gap and its rate for the stepper; (inf, 0) when there is no contact law to resolve."""
+        if not self.contact_on:
+            return math.inf, 0.0
+        q, w, _ = x
+        gap, slope = self.geometric_gap(q)
+        return gap, slope * w
+
+    def contact_scales(self, x: tuple) -> tuple[float, float]:
+        """(contact duration, largest penetration) of the contact in view; (inf, 0) when none.
+
+        Energy available along the contact normal: contact energy + 1/2 m_eff rate^2 with
+        m_eff = I / lever^2 (lever = d gap/d theta, the normal's moment arm about the pivot).
+        The energy law of the current contact is E = C delta^2.5 (a circle on a flat face),
+        with C fitted to the present contact energy when in contact; then
+        delta_max = (E_avail / C)^0.4 and duration = pi sqrt(m_eff / K_sec),
+        K_sec = 2 E(delta_max) / delta_max^2. A resting contact keeps its energy, so its
+        duration is the local oscillation's half period: finite, contact-sized steps."""
+        if not self.contact_on:
+            return math.inf, 0.0
+        q, w, _ = x
+        gap, slope = self.geometric_gap(q)
+        rate = slope * w
+        if gap > NEAR_FRACTION * self._radius and rate >= 0.0:
+            return math.inf, 0.0  # far and not approaching
+        lever = max(abs(slope), 1e-3 * self._depth)
+        m_eff = self.inertia / (lever * lever)
+        energy = self._contact(q)[1].energy
+        law = energy / (-gap) ** 2.5 if gap < 0.0 and energy > 0.0 else self._flat_law
+        speed2 = max(rate * rate, APPROACH_SPEED_FLOOR ** 2)
+        available = energy + 0.5 * m_eff * speed2
+        delta = (available / law) ** 0.4
+        k_sec = 2.0 * law * math.sqrt(delta)
+        return math.pi * math.sqrt(m_eff / k_sec), delta
+
+    # ------------------------------------------------------------- protocol
+    def advance(self, t_end: float, torque: float) -> Outputs:
+        check_advance_args(self.time, t_end, torque)
+        result = advance_steps(self, self._x, self.time, float(t_end), float(torque), self.control)
+        self._x = result.state
+        self.time = float(t_end)
+        self._outputs = self._compute_outputs(self._x, self.time, result.substeps)
+        self.last_min_gap = min(result.min_gap, self._outputs.gap)
+        return self._outputs
+
+    def outputs(self) -> Outputs:
+        return self._outputs
+
+    def get_state(self) -> ModelState:
+        q, w, work = self._x
+        return ModelState(self.fidelity, self.time, {"theta": q, "omega": w, "torque_work": work,
+                                                     "substeps": float(self._outputs.substeps),
+                                                     "last_min_gap": self.last_min_gap})
+
+    def set_state(self, state: ModelState) -> None:
+        if state.fidelity != self.fidelity:
+            raise ValueError(f"state of fidelity {state.fidelity!r} does not fit a rigid model")
+        sc = state.scalars
+        missing = [k for k in ("theta", "omega", "torque_work") if k not in sc]
+        if missing:
+            raise ValueError(f"rigid model state lacks {', '.join(missing)}")
+        x = (float(sc["theta"]), float(sc["omega"]), float(sc["torque_work"]))
+        if not all(math.isfinite(v) for v in x) or not math.isfinite(state.time):
+            raise ValueError(f"rigid model state has non-finite values: time {state.time!r}, {x!r}")
+        self._x = x
+        self.time = float(state.time)
+        self._outputs = self._compute_outputs(x, self.time, int(sc.get("substeps", 0)))
+        self.last_min_gap = float(sc.get("last_min_gap", self._outputs.gap))
+
+    # -------------------------------------------------------------- outputs
+    def _compute_outputs(self, x: tuple, t: float, substeps: int) -> Outputs:
+        q, w, work = x
+        pen = self.contact_energy(q)
+        gap, _ = self.geometric_gap(q)
+        kinetic = 0.5 * self.inertia * w * w
+        potential = -self._mgd * math.cos(q)
+        total = kinetic + potential + pen.energy
+        return Outputs(time=t, theta=math.remainder(q, 2.0 * math.pi), omega=w, gap=gap,
+                       contact_force=math.hypot(pen.fx, pen.fy), kinetic=kinetic, potential=potential,
+                       strain=0.0, contact=pen.energy, total=total, torque_work=work,
+                       von_mises_max=0.0, substeps=substeps)

@@ -1,0 +1,290 @@
+"""The penalty wall law of contact.py, evaluated exactly for a rigid circular arc.
+
+A rigid head is a circular arc (its outer boundary), so the contact integral
+h * int k/2 max(d, 0)^2 ds needs no mesh: the arc is split where it crosses
+the block's faces and where the nearest face changes (the lines on which two
+face depths are equal), each inside piece has one linear depth
+d = c + g . p, and that piece is integrated by Gauss-Legendre. The pieces are
+only micrometres deep and millimetres wide for steel, which a sampled arc
+would resolve poorly; here they are integrated to round-off.
+
+Depth convention (the same as contact.py): d(p) = min(x_max - px, px - x_min,
+y_max - py, py - y_min), positive inside; g = grad d is the inward direction
+of the nearest face, the force on the body is h k d (-g) per unit length.
+
+Plain functions over plain data: an `Arc` tuple and the scene's `WallBlock`.
+Derivatives are with respect to a rigid rotation of the arc about the origin
+(the pivot), which is all the rigid model needs. Scalars use the math module:
+these run in the inner loop of a scalar Newton solve.
+"""
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+from typing import NamedTuple
+
+import numpy as np
+
+from .scene import WallBlock
+
+TWO_PI = 2.0 * math.pi
+FACES = ("right", "left", "top", "bottom")  # x_max, x_min, y_max, y_min
+
+# Gauss-Legendre on pieces no wider than MAX_PIECE rad: the integrands are
+# trigonometric of degree 2, so 8 points are exact to round-off there.
+_GL_X, _GL_W = (tuple(float(v) for v in a) for a in np.polynomial.legendre.leggauss(8))
+MAX_PIECE = 0.5
+
+
+class Arc(NamedTuple):
+    """Circle arc: centre (cx, cy), radius, counter-clockwise from angle `start` over `length` rad."""
+
+    cx: float
+    cy: float
+    radius: float
+    start: float
+    length: float
+
+
+class Piece(NamedTuple):
+    """An angular interval [a, b] (absolute angles about the arc centre) inside the block,
+    nearest to face `face` (index into FACES)."""
+
+    a: float
+    b: float
+    face: int
+
+
+class Penalty(NamedTuple):
+    """Contact energy, force on the arc and derivatives of the energy with respect to a
+    rotation of the arc about the origin."""
+
+    energy: float
+    fx: float
+    fy: float
+    d_energy: float  # dE/dtheta = minus the contact torque about the origin
+    d2_energy: float  # d2E/dtheta2 without the jump terms at face switches (a Newton Jacobian)
+
+
+@lru_cache(maxsize=64)
+def face_depths(block: WallBlock) -> tuple[tuple[float, float, float], ...]:
+    """Each face depth as (c, gx, gy): d_face(p) = c + gx px + gy py."""
+    return ((block.x_max, -1.0, 0.0), (-block.x_min, 1.0, 0.0),
+            (block.y_max, 0.0, -1.0), (-block.y_min, 0.0, 1.0))
+
+
+@lru_cache(maxsize=64)
+def split_lines(block: WallBlock) -> tuple[tuple[float, float, float], ...]:
+    """Lines (beta, nx, ny, C) with n . p = C, n = (cos beta, sin beta): the four faces and the
+    six lines where two face depths are equal. Along an arc, the nearest face and the sign
+    of the depth can only change where the arc crosses one of them."""
+    s = math.sqrt(0.5)
+    xc, yc = 0.5 * (block.x_min + block.x_max), 0.5 * (block.y_min + block.y_max)
+    raw = [
+        (1.0, 0.0, block.x_max), (1.0, 0.0, block.x_min), (0.0, 1.0, block.y_max), (0.0, 1.0, block.y_min),
+        (1.0, 0.0, xc), (0.0, 1.0, yc),
+        (-s, s, s * (block.y_max - block.x_max)),  # right = top
+        (s, s, s * (block.x_max + block.y_min)),  # right = bottom
+        (s, s, s * (block.x_min + block.y_max)),  # left = top
+        (-s, s, s * (block.y_min - block.x_min)),  # left = bottom
+    ]
+    return tuple((math.atan2(ny, nx), nx, ny, c) for nx, ny, c in raw)
+
+
+def circle_may_touch(cx: float, cy: float, radius: float, block: WallBlock) -> bool:
+    """False when the whole circle is certainly outside the block: its centre is farther from
+    the block than the radius, or the block lies inside the circle without reaching it."""
+    qx = min(max(cx, block.x_min), block.x_max)
+    qy = min(max(cy, block.y_min), block.y_max)
+    near2 = (qx - cx) ** 2 + (qy - cy) ** 2
+    r2 = radius * radius
+    if near2 > r2:
+        return False
+    far2 = max(abs(block.x_min - cx), abs(block.x_max - cx)) ** 2 + max(abs(block.y_min - cy), abs(block.y_max - cy)) ** 2
+    return far2 >= r2
+
+
+def _offset(arc: Arc, angle: float) -> float:
+    """Arc parameter (0 at arc.start) of an absolute angle, in [0, 2 pi)."""
+    return (angle - arc.start) % TWO_PI
+
+
+def inside_pieces(arc: Arc, block: WallBlock) -> list[Piece]:
+    """The parts of the arc strictly inside the block, split where the nearest face changes."""
+    cx, cy, R = arc.cx, arc.cy, arc.radius
+    if not circle_may_touch(cx, cy, R, block):
+        return []
+    # crossings outside the (slightly grown) block cannot start, end or split an inside part
+    slack = 1e-9 * (block.x_max - block.x_min + block.y_max - block.y_min)
+    x_lo, x_hi, y_lo, y_hi = block.x_min - slack, block.x_max + slack, block.y_min - slack, block.y_max + slack
+    cuts = [0.0, arc.length]
+    for beta, nx, ny, c in split_lines(block):
+        cos_arg = (c - nx * cx - ny * cy) / R
+        if -1.0 < cos_arg < 1.0:
+            half = math.acos(cos_arg)
+            for angle in (beta - half, beta + half):
+                if x_lo <= cx + R * math.cos(angle) <= x_hi and y_lo <= cy + R * math.sin(angle) <= y_hi:
+                    s = _offset(arc, angle)
+                    if s < arc.length:
+                        cuts.append(s)
+    cuts.sort()
+    faces = face_depths(block)
+    pieces: list[Piece] = []
+    for s0, s1 in zip(cuts[:-1], cuts[1:]):
+        if s1 <= s0:
+            continue
+        mid = arc.start + 0.5 * (s0 + s1)
+        px, py = cx + R * math.cos(mid), cy + R * math.sin(mid)
+        depth, face = math.inf, -1
+        for j, (c, gx, gy) in enumerate(faces):
+            d = c + gx * px + gy * py
+            if d < depth:
+                depth, face = d, j
+        if depth <= 0.0:
+            continue
+        a, b = arc.start + s0, arc.start + s1
+        if pieces and pieces[-1].face == face and pieces[-1].b == a:
+            pieces[-1] = Piece(pieces[-1].a, b, face)  # a cut by an irrelevant line
+        else:
+            pieces.append(Piece(a, b, face))
+    return pieces
+
+
+def penalty(arc: Arc, block: WallBlock, hk: float, pieces: list[Piece] | None = None) -> Penalty:
+    """Energy h k/2 int d^2 ds over the inside pieces, the force on the arc, and dE/dtheta,
+    d2E/dtheta2 for a rotation of the arc about the origin (end points of the pieces either
+    have d = 0 or are fixed material points, so no boundary terms enter dE/dtheta)."""
+    if pieces is None:
+        pieces = inside_pieces(arc, block)
+    if not pieces:
+        return Penalty(0.0, 0.0, 0.0, 0.0, 0.0)
+    cx, cy, R = arc.cx, arc.cy, arc.radius
+    faces = face_depths(block)
+    e = fx = fy = de = d2e = 0.0
+    for a, b, face in pieces:
+        c, gx, gy = faces[face]
+        n_sub = max(1, math.ceil((b - a) / MAX_PIECE))
+        width = (b - a) / n_sub
+        half = 0.5 * width
+        s_d = s_dd = s_dj = s_h = 0.0
+        for k in range(n_sub):
+            mid = a + (k + 0.5) * width
+            for xi, wi in zip(_GL_X, _GL_W):
+                ang = mid + half * xi
+                px, py = cx + R * math.cos(ang), cy + R * math.sin(ang)
+                d = c + gx * px + gy * py
+                jd = gy * px - gx * py  # d(depth)/dtheta: g . (J p), J p = (-py, px)
+                s_d += wi * d
+                s_dd += wi * d * d
+                s_dj += wi * d * jd
+                s_h += wi * (jd * jd - d * (gx * px + gy * py))  # d2(d^2/2)/dtheta2
+        scale = hk * half * R  # ds = R d(angle), Gauss weights on [-1, 1]
+        e += 0.5 * scale * s_dd
+        fx -= scale * s_d * gx
+        fy -= scale * s_d * gy
+        de += scale * s_dj
+        d2e += scale * s_h
+    return Penalty(e, fx, fy, de, d2e)
+
+
+def deepest_point(arc: Arc, block: WallBlock, pieces: list[Piece]) -> tuple[float, float, float, int]:
+    """(depth, px, py, face) of the deepest arc point among the pieces (which must be non-empty).
+
+    On a piece d = c + g.(centre) + R cos(angle - angle_of_g), so the maximum is at the piece's
+    ends or where the radius points along g."""
+    cx, cy, R = arc.cx, arc.cy, arc.radius
+    faces = face_depths(block)
+    best = (-math.inf, 0.0, 0.0, -1)
+    for a, b, face in pieces:
+        c, gx, gy = faces[face]
+        peak = math.atan2(gy, gx)
+        peak += TWO_PI * math.ceil((a - peak) / TWO_PI)
+        candidates = (a, b, peak) if peak <= b else (a, b)
+        for ang in candidates:
+            px, py = cx + R * math.cos(ang), cy + R * math.sin(ang)
+            d = c + gx * px + gy * py
+            if d > best[0]:
+                best = (d, px, py, face)
+    return best
+
+
+def _on_arc(arc: Arc, angle: float) -> bool:
+    return _offset(arc, angle) <= arc.length
+
+
+def _point_box(px: float, py: float, block: WallBlock) -> tuple[float, float, float]:
+    """Distance from a point outside (or on) the block to it, and the nearest block point."""
+    qx = min(max(px, block.x_min), block.x_max)
+    qy = min(max(py, block.y_min), block.y_max)
+    return math.hypot(px - qx, py - qy), qx, qy
+
+
+def outside_distance(arc: Arc, block: WallBlock) -> tuple[float, float, float, float, float]:
+    """Euclidean distance from an arc with no point inside the block to the block:
+    (distance, px, py, nx, ny), p the arc point attaining it and n the unit direction from
+    the block to p (the gap's gradient with respect to p).
+
+    The closest pair is one of: an arc end and the block; a corner and the circle point
+    radially facing it; an edge's foot of the perpendicular from the centre and the circle
+    point facing it (when those circle points lie on the arc). Each candidate is an actual
+    arc-to-block distance, so the minimum over them is exact."""
+    cx, cy, R = arc.cx, arc.cy, arc.radius
+    best = (math.inf, 0.0, 0.0, 0.0, 0.0)  # dist, px, py, qx, qy
+
+    def consider(dist, px, py, qx, qy):
+        nonlocal best
+        if dist < best[0]:
+            best = (dist, px, py, qx, qy)
+
+    # block points facing the centre: the clamped centre, corners, feet on the edges
+    x0, x1, y0, y1 = block.x_min, block.x_max, block.y_min, block.y_max
+    feet = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)]
+    if x0 < cx < x1:
+        feet += [(cx, y0), (cx, y1)]
+    if y0 < cy < y1:
+        feet += [(x0, cy), (x1, cy)]
+    for qx, qy in feet:
+        rx, ry = qx - cx, qy - cy
+        rho = math.hypot(rx, ry)
+        if rho == 0.0:
+            continue
+        if _on_arc(arc, math.atan2(ry, rx)):
+            px, py = cx + R * rx / rho, cy + R * ry / rho
+            consider(abs(rho - R), px, py, qx, qy)
+    for ang in (arc.start, arc.start + arc.length):
+        px, py = cx + R * math.cos(ang), cy + R * math.sin(ang)
+        dist, qx, qy = _point_box(px, py, block)
+        consider(dist, px, py, qx, qy)
+    dist, px, py, qx, qy = best
+    if dist > 0.0:
+        nx, ny = (px - qx) / dist, (py - qy) / dist
+    else:  # touching: the block's outward direction, seen from the circle's centre
+        rx, ry = cx - qx, cy - qy
+        rho = math.hypot(rx, ry) or 1.0
+        nx, ny = rx / rho, ry / rho
+    return dist, px, py, nx, ny
+
+
+def signed_gap(arc: Arc, block: WallBlock, pieces: list[Piece] | None = None) -> tuple[float, float]:
+    """(gap, d gap / d theta) for a rotation of the arc about the origin.
+
+    gap > 0: Euclidean clearance between arc and block; gap < 0: minus the largest depth of
+    an arc point inside the block (the penalty law's depth)."""
+    cx, cy, R = arc.cx, arc.cy, arc.radius
+    # fast path (free flight): the centre is outside, more than R from the block, and the
+    # circle point facing the block's nearest point lies on the arc; then the gap is exact.
+    dist_c, qx, qy = _point_box(cx, cy, block)
+    if dist_c > R:
+        rx, ry = qx - cx, qy - cy
+        if _on_arc(arc, math.atan2(ry, rx)):
+            nx, ny = -rx / dist_c, -ry / dist_c
+            px, py = cx - R * nx, cy - R * ny
+            return dist_c - R, ny * px - nx * py
+    if pieces is None:
+        pieces = inside_pieces(arc, block)
+    if pieces:
+        depth, px, py, face = deepest_point(arc, block, pieces)
+        _, gx, gy = face_depths(block)[face]
+        return -depth, -(gy * px - gx * py)
+    dist, px, py, nx, ny = outside_distance(arc, block)
+    return dist, ny * px - nx * py

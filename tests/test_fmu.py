@@ -1,0 +1,280 @@
+"""The FMU as masters use it: build, validation, fmpy command line and API, errors, state.
+
+Every test that instantiates the FMU runs in a fresh interpreter (@isolated):
+pythonfmu 0.7.0 fails to create a second instance of our slave in one process
+(docs/fmu.md), so each of those tests holds exactly one instance.
+"""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from ctypes import byref
+
+from fmpy import extract, fmi2, read_model_description, simulate_fmu
+from fmpy.logging import addLoggerProxy
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave
+from fmpy.validation import validate_fmu
+
+from fem_pendulum_fmu import interface
+from fem_pendulum_fmu.slave import OUTPUT_FIELDS, PendulumSlave
+
+ROOT = Path(__file__).resolve().parents[1]
+COARSE = {"model.mesh_size": 0.06}  # FMI behaviour, not physics: the coarsest mesh keeps tests fast
+TESTS = str(Path(__file__).resolve().parent)
+
+
+def isolated(body):
+    """Run the test body in a new Python process (one FMU instance per process)."""
+
+    def test(fmus, tmp_path):
+        script = (f"import sys; from pathlib import Path; sys.path.insert(0, {TESTS!r}); import test_fmu; "
+                  f"test_fmu.{body.__name__}.body((Path({str(fmus[0])!r}), Path({str(fmus[1])!r})), Path({str(tmp_path)!r}))")
+        run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+        assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+
+    test.body = body
+    test.__name__ = body.__name__
+    return test
+
+
+@pytest.fixture(scope="session")
+def fmus(tmp_path_factory):
+    out = tmp_path_factory.mktemp("dist")
+    subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--output", str(out / "FemPendulum.fmu")],
+                   check=True, cwd=ROOT, capture_output=True, text=True)
+    return out / "FemPendulum.fmu", out / "PidController.fmu"
+
+
+class Instance:
+    """An fmpy FMU2Slave of the pendulum FMU, addressed by variable name; log messages collected."""
+
+    def __init__(self, fmu: Path, name: str = "pendulum", **start):
+        self.md = read_model_description(str(fmu))
+        self.var = {v.name: v for v in self.md.modelVariables}
+        self.dir = extract(str(fmu))
+        self.messages: list[str] = []
+
+        def logger(component, instance, status, category, message):
+            self.messages.append(message.decode())
+
+        callbacks = fmi2.fmi2CallbackFunctions()
+        self._logger = fmi2.fmi2CallbackLoggerTYPE(logger)  # keep a reference: C holds the pointer
+        callbacks.logger = self._logger
+        callbacks.allocateMemory = fmi2.defaultCallbacks.allocateMemory
+        callbacks.freeMemory = fmi2.defaultCallbacks.freeMemory
+        addLoggerProxy(byref(callbacks))
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir, instanceName=name,
+                             modelIdentifier=self.md.coSimulation.modelIdentifier)
+        self.fmu.instantiate(loggingOn=True, callbacks=callbacks)
+        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        for key, value in start.items():
+            self.set(key, value)
+        self.fmu.exitInitializationMode()
+        self.t = 0.0
+
+    def set(self, name, value):
+        v = self.var[name]
+        if v.type == "Real":
+            self.fmu.setReal([v.valueReference], [float(value)])
+        elif v.type == "Boolean":
+            self.fmu.setBoolean([v.valueReference], [bool(value)])
+        else:
+            self.fmu.setInteger([v.valueReference], [int(value)])
+
+    def get(self, *names):
+        return self.fmu.getReal([self.var[n].valueReference for n in names])
+
+    def step(self, h, torque=0.0):
+        self.set("torque", torque)
+        self.fmu.doStep(self.t, h)
+        self.t += h
+        return self.get("theta", "omega", "gap", "energy.total", "energy.torque_work")
+
+    def close(self):
+        self.fmu.terminate()
+        self.fmu.freeInstance()
+
+
+def test_template_and_slave_declare_the_same_variables():
+    ifc = interface.load()
+    slave = PendulumSlave(instance_name="check", resources=str(ROOT))
+    assert [v.value_reference for v in ifc.variables] == list(slave.vars.keys())
+    for v in ifc.variables:
+        registered = slave.vars[v.value_reference]
+        assert registered.name == v.name
+        assert registered.causality.name == v.causality
+        if v.start is not None:
+            assert registered.getter() == v.start
+    outputs = {v.name for v in ifc.of_causality("output")}
+    assert outputs == set(OUTPUT_FIELDS)
+    # the design's names are a contract
+    for name in ("torque", "theta", "gap", "contact_force", "energy.torque_work", "wall.kind", "model.fidelity",
+                 "solver.max_step", "solver.tolerance", "model.compute_stress"):
+        ifc.by_name(name)
+
+
+def test_built_fmu_passes_fmpy_validation_and_carries_the_template(fmus):
+    fmu, pid = fmus
+    assert validate_fmu(str(fmu)) == []
+    assert validate_fmu(str(pid)) == []
+    with zipfile.ZipFile(fmu) as z:
+        xml = z.read("modelDescription.xml").decode()
+        assert "{{GUID}}" not in xml and "InitialUnknowns" in xml and 'displayUnit="deg"' in xml
+        assert "requirements.txt" in "".join(z.namelist())
+    md = read_model_description(str(fmu))
+    assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
+    assert float(md.defaultExperiment.stopTime) == 2.0
+
+
+def test_fmpy_command_line_with_input_file_and_start_values(fmus, tmp_path):
+    fmu, _ = fmus
+    out = tmp_path / "out.csv"
+    subprocess.run([str(Path(sys.executable).parent / "fmpy"), "simulate", str(fmu),
+                    "--input-file", str(ROOT / "examples" / "torque_pulse.csv"), "--stop-time", "0.35",
+                    "--output-file", str(out), "--start-values", "theta0", "0.1", "model.mesh_size", "0.06"],
+                   check=True, capture_output=True, text=True)
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    assert abs(data["theta"][0] - 0.1) < 1e-6
+    assert data["energytorque_work"][-1] != 0.0  # the pulse did work
+
+
+@isolated
+def test_theta0_in_degrees_through_the_display_unit(fmus, tmp_path):
+    fmu, _ = fmus
+    result = simulate_fmu(str(fmu), stop_time=0.002, step_size=1e-3,
+                          start_values={"theta0": (10.0, "deg"), "model.mesh_size": 0.06})
+    assert abs(result["theta"][0] - math.radians(10.0)) < 1e-6
+
+
+@isolated
+def test_bad_input_is_refused_with_a_message_and_the_state_kept(fmus, tmp_path):
+    fmu, _ = fmus
+    inst = Instance(fmu, **COARSE)
+    inst.step(1e-3)
+    before = inst.get("theta", "omega", "energy.total")
+    for torque, h, t in ((float("nan"), 1e-3, inst.t), (float("inf"), 1e-3, inst.t), (0.0, -1e-3, inst.t),
+                         (0.0, 0.0, inst.t), (0.0, 1e-3, inst.t + 0.5)):
+        inst.set("torque", torque)
+        with pytest.raises(FMICallException, match="discard"):
+            inst.fmu.doStep(t, h)
+        assert inst.get("theta", "omega", "energy.total") == before
+    assert any("torque" in m and "finite" in m for m in inst.messages)
+    assert any("step size" in m for m in inst.messages)
+    assert any("communication point" in m for m in inst.messages)
+    inst.step(1e-3)  # the next valid step goes on
+    assert inst.get("theta")[0] != before[0]
+    inst.close()
+
+
+@isolated
+def test_invalid_parameter_is_named_and_nothing_runs(fmus, tmp_path):
+    fmu, _ = fmus
+    inst = Instance(fmu, **{"pendulum.nu": 0.5})
+    with pytest.raises(FMICallException):
+        inst.step(1e-3)
+    assert any("pendulum.nu" in m and "0.5" in m for m in inst.messages), inst.messages
+    inst.close()
+
+
+@isolated
+def test_parameter_after_initialisation_is_refused(fmus, tmp_path):
+    fmu, _ = fmus
+    inst = Instance(fmu, **COARSE)
+    inst.set("pendulum.E", 1.0)
+    assert inst.get("pendulum.E") == [2.1e11]
+    assert any("pendulum.E" in m and "after initialisation" in m for m in inst.messages)
+    inst.step(1e-3)
+    inst.close()
+
+
+@isolated
+def test_rollback_replays_bit_identically(fmus, tmp_path):
+    fmu, _ = fmus
+    inst = Instance(fmu, **COARSE)
+    for _ in range(5):
+        inst.step(1e-3, 0.2)
+    state = inst.fmu.getFMUstate()
+    t = inst.t
+    first = [inst.step(1e-3, -0.3) for _ in range(20)]
+    inst.fmu.setFMUstate(state)
+    inst.t = t
+    again = [inst.step(1e-3, -0.3) for _ in range(20)]
+    assert first == again
+    inst.fmu.freeFMUstate(state)
+    inst.close()
+
+
+RESTORE_SCRIPT = """
+import sys, json
+sys.path.insert(0, {tests!r})
+from test_fmu import Instance
+inst = Instance({fmu!r}, **{start!r})
+state = inst.fmu.deSerializeFMUstate(open({blob!r}, 'rb').read())
+inst.fmu.setFMUstate(state)
+inst.t = {t!r}
+print(json.dumps([inst.step(1e-3, -0.3) for _ in range(10)]))
+"""
+
+
+@isolated
+def test_serialised_state_restores_in_another_process(fmus, tmp_path):
+    fmu, _ = fmus
+    inst = Instance(fmu, **COARSE)
+    for _ in range(5):
+        inst.step(1e-3, 0.2)
+    blob = tmp_path / "state.bin"
+    blob.write_bytes(bytes(inst.fmu.serializeFMUstate(inst.fmu.getFMUstate())))
+    here = [inst.step(1e-3, -0.3) for _ in range(10)]
+    inst.close()
+    script = RESTORE_SCRIPT.format(tests=str(Path(__file__).parent), fmu=str(fmu), start=COARSE, blob=str(blob), t=0.005)
+    out = subprocess.run([sys.executable, "-c", script], check=True, capture_output=True, text=True).stdout
+    import json
+
+    there = json.loads(out.strip().splitlines()[-1])
+    assert there == [list(map(float, row)) for row in here]
+
+
+@isolated
+def test_corrupt_state_bytes_are_refused_without_a_crash(fmus, tmp_path):
+    fmu, _ = fmus
+    inst = Instance(fmu, **COARSE)
+    inst.step(1e-3)
+    before = inst.get("theta", "omega")
+    state = inst.fmu.deSerializeFMUstate(b"not a state at all")
+    inst.fmu.setFMUstate(state)
+    assert inst.get("theta", "omega") == before
+    assert any("corrupt" in m for m in inst.messages)
+    inst.step(1e-3)
+    inst.close()
+
+
+@isolated
+def test_variable_communication_steps_reach_the_same_state(fmus, tmp_path):
+    fmu, _ = fmus
+    inst = Instance(fmu, **COARSE)
+    start = inst.fmu.getFMUstate()
+    for _ in range(20):
+        inst.step(1e-3)
+    fine = inst.get("theta")[0]
+    inst.fmu.setFMUstate(start)
+    inst.t = 0.0
+    inst.step(0.005)
+    inst.step(0.015)
+    coarse = inst.get("theta")[0]
+    assert abs(fine - coarse) < 1e-6, (fine, coarse)
+    inst.close()
+
+
+def test_readme_variable_table_is_generated_from_the_template():
+    text = (ROOT / "README.md").read_text()
+    start, end = "<!-- interface-table:start -->", "<!-- interface-table:end -->"
+    table = text[text.index(start) + len(start):text.index(end)].strip()
+    assert table == interface.markdown_table().strip()
