@@ -38,16 +38,16 @@ NEAR_FRACTION = 1.0  # contact scales are reported while the gap is below this m
 
 
 @lru_cache(maxsize=16)
-def geometry_moments(geo: PendulumGeometry) -> tuple[float, float, float, float]:
-    """(area, first moment int y dA, first moment int x dA, polar moment int x^2 + y^2 dA) of the
-    pendulum face. Times rho h these are mass, m y_com, m x_com and I about the pivot; they
-    depend on the geometry only, so they are computed once per geometry and process."""
+def geometry_moments(geo: PendulumGeometry) -> tuple[float, float, float]:
+    """(area, first moment int y dA, polar moment int x^2 + y^2 dA) of the pendulum face (symmetric
+    about x = 0 by construction). Times rho h these are the mass, m y_com and I about the pivot;
+    they depend on the geometry only, so they are computed once per geometry and process."""
     from ngsolve import CF, Integrate, x, y
 
     mesh = make_mesh(geo, MASS_MESH_SIZE, MASS_MESH_ORDER)
     order = 2 * MASS_MESH_ORDER + 2
     return (float(Integrate(CF(1.0), mesh, order=order)), float(Integrate(y, mesh, order=order)),
-            float(Integrate(x, mesh, order=order)), float(Integrate(x * x + y * y, mesh, order=order)))
+            float(Integrate(x * x + y * y, mesh, order=order)))
 
 
 class RigidModel:
@@ -73,7 +73,7 @@ class RigidModel:
             raise ValueError("parameter wall.kind = 'deformable' is not available with model.fidelity = 'rigid': "
                              "choose rigid or none, or model.fidelity = 'fem'")
         geo, mat = scene.geometry, scene.pendulum
-        area, sy, sx, polar = geometry_moments(geo)
+        area, sy, polar = geometry_moments(geo)
         rho_h = mat.rho * mat.thickness
         self.total_mass = rho_h * area
         self.com_depth = -sy / area
