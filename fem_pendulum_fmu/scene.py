@@ -158,7 +158,7 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
     "solver.max_step": (1e-7, 0.1, True, True),
     "solver.tolerance": (1e-8, 0.1, True, True),
 }
-_INT_RANGES = {"model.order": (1, 5), "model.threads": (1, 64)}
+_INT_RANGES = {"model.order": (2, 5), "model.threads": (1, 64)}  # order 1: see docs/fem.md
 _CHOICES = {"wall.kind": WALL_KINDS, "model.fidelity": FIDELITIES}
 
 

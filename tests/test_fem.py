@@ -185,7 +185,7 @@ def test_bad_advance_arguments_leave_the_state_unchanged():
 
 @pytest.mark.parametrize("name, value, allowed", [
     ("pendulum.nu", 0.5, r"\[0, 0.5\)"), ("pendulum.E", 0.0, r"\(0, inf\)"), ("pendulum.thickness", -0.01, r"\(0, inf\)"),
-    ("model.order", 0, r"\[1, 5\]"), ("model.order", 10, r"\[1, 5\]"), ("contact.stiffness", float("nan"), "finite"),
+    ("model.order", 0, r"\[2, 5\]"), ("model.order", 10, r"\[2, 5\]"), ("contact.stiffness", float("nan"), "finite"),
     ("model.mesh_size", 1e-5, r"\[0.002, 0.1\]"), ("wall.kind", "glass", "rigid, deformable, none"),
 ])
 def test_bad_parameters_are_named_with_value_and_range(name, value, allowed):
