@@ -63,7 +63,7 @@ def build_pendulum(output: Path) -> Path:
         (tmp / "requirements.txt").write_text(requirements_txt())
         stage = tmp / "fem_pendulum_fmu"
         shutil.copytree(PACKAGE, stage, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-        built = FmuBuilder.build_FMU(stage / "fem_pendulum_fmu_entry.py", dest=output,
+        built = FmuBuilder.build_FMU(stage / "femp_slave_entry.py", dest=output,
                                      project_files=[stage, tmp / TEMPLATE_NAME, tmp / "requirements.txt"])
     built = Path(built)
     if built.resolve() != output.resolve():

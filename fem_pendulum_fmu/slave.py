@@ -7,7 +7,7 @@ on its next call), so nothing here raises into the host: invalid input is
 logged with status error and the doStep it would affect returns fmi2Discard,
 leaving the state unchanged; a parameter set after initialisation is logged
 and ignored. The FMU's entry script subclasses `PendulumSlave` (see
-fem_pendulum_fmu_entry.py).
+femp_slave_entry.py).
 """
 from __future__ import annotations
 
@@ -41,12 +41,6 @@ OUTPUT_FIELDS = {
 ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}
 _PY_TYPES = {"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean": Boolean}
 _TIME_TOL = 1e-9
-_PINNED: list = []
-
-
-def pin_module(module, references: int = 4096) -> None:
-    """Hold extra references to an FMU entry module (see fem_pendulum_fmu_entry.py)."""
-    _PINNED.extend([module] * references)
 
 
 class _FmiLogHandler(logging.Handler):
