@@ -74,7 +74,9 @@ class _Slave:
         import shutil
 
         self.fmu.terminate()
-        self.fmu.freeInstance()
+        # free the instance, keep the library: unloading pythonfmu's binary while this interpreter
+        # still holds objects it created can corrupt the heap when the process exits
+        self.fmu.fmi2FreeInstance(self.fmu.component)
         shutil.rmtree(self.dir, ignore_errors=True)
 
 
