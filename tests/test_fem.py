@@ -146,7 +146,7 @@ def test_compliant_impact_feeds_vibration_and_keeps_energy():
 def test_compliant_angle_and_gap_converge_under_mesh_refinement():
     results = {}
     for size in (0.06, 0.03, 0.015):
-        model = create(compliant(**{"model.mesh_size": size}))
+        model = create(compliant(**{"model.mesh_size": size, "model.order": 2}))
         results[size] = run(model, 0.3)
     ref = results[0.015]
     err = {s: (np.max(np.abs(results[s][:, 1] - ref[:, 1])), np.max(np.abs(results[s][:, 3] - ref[:, 3])))
