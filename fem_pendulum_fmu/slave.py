@@ -16,6 +16,7 @@ import json
 import logging
 import math
 import time
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -193,20 +194,16 @@ class PendulumSlave(Fmi2Slave):
     def terminate(self):
         self.terminated = True
 
+    @contextmanager
     def _logging(self):
-        slave = self
-
-        class _Attached:
-            def __enter__(self):
-                LOG.addHandler(slave._handler)
-                if LOG.level == logging.NOTSET or LOG.level > logging.DEBUG:
-                    LOG.setLevel(logging.DEBUG)
-
-            def __exit__(self, *exc):
-                LOG.removeHandler(slave._handler)
-                return False
-
-        return _Attached()
+        """Route the package's log records to this instance's FMI logger while it runs the model."""
+        LOG.addHandler(self._handler)
+        if LOG.level == logging.NOTSET or LOG.level > logging.DEBUG:
+            LOG.setLevel(logging.DEBUG)
+        try:
+            yield
+        finally:
+            LOG.removeHandler(self._handler)
 
     # ---------------------------------------------------------------- FMU state
     def _get_fmu_state(self) -> dict[str, Any]:

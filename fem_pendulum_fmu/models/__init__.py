@@ -8,7 +8,8 @@ AVAILABLE = ("rigid", "fem")
 
 
 def resolve_fidelity(scene: Scene) -> str:
-    """The fidelity that runs for a scene ("auto" resolved by the rule in docs/fidelity.md)."""
+    """The fidelity that runs for a scene. "auto" runs the full FE model until the
+    selection rule of issue 4 (rigid / reduced / fem by scene) is in place."""
     fidelity = scene.model.fidelity
     if fidelity == "auto":
         return "fem"

@@ -37,11 +37,6 @@ class Outputs:
     von_mises_max: float = 0.0
     substeps: int = 0
 
-    @property
-    def energy_error(self) -> float:
-        """Not meaningful alone: E_total(t) - W_torque(t); subtract E_total(0) for the scheme's error."""
-        return self.total - self.torque_work
-
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
 

@@ -12,6 +12,7 @@ Step sizes come from stepping.py.
 from __future__ import annotations
 
 import math
+from contextlib import nullcontext
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -141,7 +142,7 @@ class FemModel:
             um = 0.5 * (u + self.u0)
             um_head = 0.5 * (u.Other() + self.u0.Other())
             pen = InnerProduct((pos + um) - (pos.Other() + um_head), N)
-            cb.AddEnergy(IfPos_(pen, 2.0 * h * 0.5 * k * pen * pen, 0.0), deformed=False)
+            cb.AddEnergy(ngs.IfPos(pen, 2.0 * h * 0.5 * k * pen * pen, 0.0), deformed=False)
             self._wall_contact = cb
         self.a = a
         self.freedofs = X.FreeDofs()
@@ -180,7 +181,7 @@ class FemModel:
         if self.contact_on:
             d, grad = wall_contact.depth_and_gradient(pos + self.gf_u, sc.block)
             self._contact_energy_cf = h * wall_contact.penalty_energy(d, k)
-            self._contact_force_cf = h * IfPos_(d, k * d, 0.0) * (-grad)
+            self._contact_force_cf = h * ngs.IfPos(d, k * d, 0.0) * (-grad)
         # points on the head boundary for the gap: positions X + u evaluated vectorised
         rule = IntegrationRule(SEGM, self._contact_order)
         self._head_points = mesh.MapToAllElements(rule, mesh.Boundaries("head"))
@@ -390,7 +391,7 @@ class FemModel:
     def advance(self, t_end: float, torque: float) -> Outputs:
         check_advance_args(self.time, t_end, torque)
         torque = float(torque)
-        with ngs.TaskManager(pajama_trace=False) if self.scene.model.threads > 1 else _nullcontext():
+        with ngs.TaskManager() if self.scene.model.threads > 1 else nullcontext():
             result = advance_steps(self, self._state, self.time, t_end, torque, self.control)
         self._state = result.state
         self.time = float(t_end)
@@ -464,25 +465,14 @@ class FemModel:
                        torque_work=s.torque_work, von_mises_max=vm, substeps=substeps)
 
 
-def IfPos_(c, a, b):
-    return ngs.IfPos(c, a, b)
-
-
-class _nullcontext:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-
 def contact_time_scale(gaps: np.ndarray, weights: np.ndarray, m_eff: float, rate: float, k_line: float) -> tuple[float, float]:
     """(duration, largest depth) of the contact now in view, from the penalty law on sampled points.
 
-    The points are pushed rigidly by a depth delta along the normal: E(delta) =
-    k_line/2 * sum w_i max(delta - g_i + g_min, 0)^2 ... measured from the
-    present state; delta_max balances the normal energy available, and the
-    duration is pi sqrt(m_eff / K_sec) with K_sec = 2 E(delta_max) / delta_max^2."""
+    The boundary is pushed rigidly along the normal by delta beyond its closest
+    point: E(delta) = k_line/2 * sum_i w_i max(delta - (g_i - g_min), 0)^2.
+    delta_max balances the normal energy available (contact energy now plus
+    the approach's kinetic energy with the effective mass), and the duration is
+    pi sqrt(m_eff / K_sec) with K_sec = 2 E(delta_max) / delta_max^2."""
     g_min = float(np.min(gaps))
     pen = np.maximum(-gaps, 0.0)
     e_now = 0.5 * k_line * float(weights @ (pen * pen))
