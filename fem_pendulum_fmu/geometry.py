@@ -7,6 +7,8 @@ edges, clamped). Material names: "pendulum" and "wall".
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 from netgen.occ import X, Y, Circle, Compound, MoveTo, OCCGeometry
 
 from .scene import PendulumGeometry, WallBlock
@@ -63,10 +65,37 @@ def make_geometry(geo: PendulumGeometry, block: WallBlock | None = None,
 def make_mesh(geo: PendulumGeometry, mesh_size: float, order: int, block: WallBlock | None = None,
               head_edge_size: float | None = None, wall_face_size: float | None = None,
               refine_like_seed: bool = False):
-    """A curved NGSolve mesh of the scene (order-`order` geometry)."""
+    """A curved NGSolve mesh of the scene (order-`order` geometry).
+
+    The straight-sided mesh is always read back from a netgen .vol file, the
+    disk cache's entry (cache.py) or a temporary one when the cache is off, so
+    that a cached and a freshly generated mesh are the same to the last bit
+    (the file rounds coordinates); curving is redone here."""
+    import tempfile
+    from dataclasses import asdict
+
+    from netgen.meshing import Mesh as NetgenMesh
     from ngsolve import Mesh
 
+    from .cache import cached_file
+
     occ = make_geometry(geo, block, head_edge_size, wall_face_size, refine_like_seed)
-    mesh = Mesh(occ.GenerateMesh(maxh=mesh_size))
+    key = {"geometry": asdict(geo), "block": asdict(block) if block else None, "mesh_size": mesh_size,
+           "head_edge_size": head_edge_size, "wall_face_size": wall_face_size, "seed": refine_like_seed}
+
+    def write(path):
+        occ.GenerateMesh(maxh=mesh_size).Save(str(path))
+
+    ngmesh = NetgenMesh(dim=2)
+    path = cached_file("mesh", key, ".vol", write)
+    if path is None:
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "mesh.vol"
+            write(path)
+            ngmesh.Load(str(path))
+    else:
+        ngmesh.Load(str(path))
+    ngmesh.SetGeometry(occ)
+    mesh = Mesh(ngmesh)
     mesh.Curve(max(order, 2))
     return mesh

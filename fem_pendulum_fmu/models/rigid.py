@@ -42,12 +42,20 @@ def geometry_moments(geo: PendulumGeometry) -> tuple[float, float, float]:
     """(area, first moment int y dA, polar moment int x^2 + y^2 dA) of the pendulum face (symmetric
     about x = 0 by construction). Times rho h these are the mass, m y_com and I about the pivot;
     they depend on the geometry only, so they are computed once per geometry and process."""
-    from ngsolve import CF, Integrate, x, y
+    from dataclasses import asdict
 
-    mesh = make_mesh(geo, MASS_MESH_SIZE, MASS_MESH_ORDER)
-    order = 2 * MASS_MESH_ORDER + 2
-    return (float(Integrate(CF(1.0), mesh, order=order)), float(Integrate(y, mesh, order=order)),
-            float(Integrate(x * x + y * y, mesh, order=order)))
+    from ..cache import load_or_build_json
+
+    def integrate() -> list[float]:
+        from ngsolve import CF, Integrate, x, y
+
+        mesh = make_mesh(geo, MASS_MESH_SIZE, MASS_MESH_ORDER)
+        order = 2 * MASS_MESH_ORDER + 2
+        return [float(Integrate(CF(1.0), mesh, order=order)), float(Integrate(y, mesh, order=order)),
+                float(Integrate(x * x + y * y, mesh, order=order))]
+
+    key = {"geometry": asdict(geo), "mesh_size": MASS_MESH_SIZE, "order": MASS_MESH_ORDER}
+    return tuple(load_or_build_json("moments", key, integrate))
 
 
 class RigidModel:

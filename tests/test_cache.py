@@ -1,0 +1,63 @@
+"""The disk cache of meshes and precomputed data (cache.py)."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+from fem_pendulum_fmu import cache
+from fem_pendulum_fmu.models import create
+from fem_pendulum_fmu.scene import stiff
+
+WRITER = """
+import sys, time
+from pathlib import Path
+from fem_pendulum_fmu import cache
+def write(path):
+    data = bytes(range(256)) * 4000
+    with open(path, "wb") as f:
+        for i in range(0, len(data), 4096):
+            f.write(data[i:i + 4096]); f.flush(); time.sleep(0.001)
+p = cache.cached_file("race", {"n": 1}, ".bin", write)
+print(len(Path(p).read_bytes()))
+"""
+
+
+def test_entry_is_built_once_and_reused(tmp_path, monkeypatch):
+    monkeypatch.setenv(cache.ENV, str(tmp_path))
+    calls = []
+    first = cache.load_or_build_json("demo", {"a": 1}, lambda: calls.append(1) or [1.5, 2.5])
+    again = cache.load_or_build_json("demo", {"a": 1}, lambda: calls.append(1) or [9.0])
+    other = cache.load_or_build_json("demo", {"a": 2}, lambda: calls.append(1) or [3.0])
+    assert first == again == [1.5, 2.5] and other == [3.0] and len(calls) == 2
+    assert len(list(tmp_path.iterdir())) == 2
+
+
+def test_cache_off_and_unwritable_folder_still_build(tmp_path, monkeypatch):
+    monkeypatch.setenv(cache.ENV, "off")
+    assert cache.load_or_build_json("demo", {"a": 1}, lambda: [4.0]) == [4.0]
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv(cache.ENV, str(blocker / "sub"))
+    assert cache.load_or_build_json("demo", {"a": 1}, lambda: [5.0]) == [5.0]
+
+
+def test_processes_sharing_the_cache_never_see_a_partial_entry(tmp_path):
+    env = {**os.environ, cache.ENV: str(tmp_path)}
+    procs = [subprocess.Popen([sys.executable, "-c", WRITER], env=env, stdout=subprocess.PIPE, text=True)
+             for _ in range(4)]
+    sizes = [int(p.communicate()[0].strip()) for p in procs]
+    assert sizes == [1024000] * 4
+    assert [f.name for f in tmp_path.iterdir()] == [cache.entry_name("race", {"n": 1}, ".bin")]
+
+
+def test_cached_mesh_gives_bit_identical_results(tmp_path, monkeypatch):
+    monkeypatch.setenv(cache.ENV, str(tmp_path))
+    cold = [create(stiff()).advance(0.02, 0.1).theta for _ in range(2)]
+    monkeypatch.setenv(cache.ENV, "off")
+    off = create(stiff()).advance(0.02, 0.1).theta
+    assert cold[0] == cold[1] == off
+    assert any(f.suffix == ".vol" for f in tmp_path.iterdir())
+    assert np.isfinite(off)
