@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import shutil
+import subprocess
 import sys
 import tempfile
 import uuid
@@ -37,6 +38,40 @@ def replace_model_description(fmu: Path, xml: str) -> None:
                 dst.writestr(item, src.read(item.filename))
         dst.writestr("modelDescription.xml", xml)
     tmp.replace(fmu)
+
+
+def compile_status_shim(workdir: Path) -> Path | None:
+    """Compile the fmi2Error shim (fem_pendulum_fmu/shim) for Linux; None where it cannot be built."""
+    import fmpy
+
+    if not sys.platform.startswith("linux") or shutil.which("cc") is None:
+        return None
+    out = workdir / "shim.so"
+    headers = Path(fmpy.__file__).parent / "c-code"
+    subprocess.run(["cc", "-shared", "-fPIC", "-O2", f"-I{headers}", str(PACKAGE / "shim" / "fmi2_error_shim.c"),
+                    "-ldl", "-o", str(out)], check=True)
+    return out
+
+
+def install_status_shim(fmu: Path, model_identifier: str) -> bool:
+    """Put the shim in front of pythonfmu's linux64 binary, which becomes <id>_core.so."""
+    with tempfile.TemporaryDirectory() as tmp:
+        shim = compile_status_shim(Path(tmp))
+        if shim is None:
+            print("no C compiler: the FMU answers refused input with fmi2Discard instead of fmi2Error")
+            return False
+        binary = f"binaries/linux64/{model_identifier}.so"
+        tmp_fmu = fmu.with_suffix(".tmp")
+        with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED) as dst:
+            for item in src.infolist():
+                data = src.read(item.filename)
+                if item.filename == binary:
+                    dst.writestr(f"binaries/linux64/{model_identifier}_core.so", data)
+                    dst.write(shim, binary)
+                else:
+                    dst.writestr(item, data)
+        tmp_fmu.replace(fmu)
+    return True
 
 
 def validate(fmu: Path) -> None:
@@ -69,6 +104,7 @@ def build_pendulum(output: Path) -> Path:
     if built.resolve() != output.resolve():
         shutil.move(str(built), output)
     replace_model_description(output, xml)
+    install_status_shim(output, "FemPendulum")
     validate(output)
     return output
 

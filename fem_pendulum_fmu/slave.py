@@ -3,11 +3,11 @@
 Variables are registered from the template (interface.py), so the
 modelDescription and the slave cannot drift. pythonfmu 0.7.0 turns every
 Python exception into fmi2Fatal (and a fatal instance may take the host down
-on its next call), so nothing here raises into the host: invalid input is
-logged with status error and the doStep it would affect returns fmi2Discard,
-leaving the state unchanged; a parameter set after initialisation is logged
-and ignored. The FMU's entry script subclasses `PendulumSlave` (see
-femp_slave_entry.py).
+on its next call), so nothing here raises into the host. Refused input is
+logged with status error and flagged to the FMU's status shim (shim/), which
+makes that FMI call answer fmi2Error; the state is left unchanged. A step the
+model cannot complete answers fmi2Discard. The FMU's entry script subclasses
+`PendulumSlave` (see femp_slave_entry.py).
 """
 from __future__ import annotations
 
@@ -42,6 +42,29 @@ OUTPUT_FIELDS = {
 ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}
 _PY_TYPES = {"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean": Boolean}
 _TIME_TOL = 1e-9
+
+
+_FLAGS: dict = {}
+
+
+def _error_flag(resources: str | None):
+    """fem_pendulum_flag_error of the FMU's status shim (binaries/linux64/FemPendulum.so), if present.
+
+    pythonfmu alone can only answer OK, Discard or Fatal; the shim in front of
+    it turns the call that this flag marks into fmi2Error."""
+    if resources not in _FLAGS:
+        _FLAGS[resources] = None
+        if resources:
+            import ctypes
+            from pathlib import Path
+
+            binary = Path(resources).parent / "binaries" / "linux64" / "FemPendulum.so"
+            if binary.is_file():
+                try:
+                    _FLAGS[resources] = ctypes.CDLL(str(binary)).fem_pendulum_flag_error
+                except (OSError, AttributeError):
+                    pass
+    return _FLAGS[resources]
 
 
 class _FmiLogHandler(logging.Handler):
@@ -120,7 +143,11 @@ class PendulumSlave(Fmi2Slave):
         self.torque = float(value)  # validated at doStep, where the error can be reported as Discard
 
     def _error(self, msg: str) -> None:
+        """Log with status error and make the FMI call in progress answer fmi2Error (see shim/)."""
         self.log(msg, Fmi2Status.error)
+        flag = _error_flag(self.resources)
+        if flag is not None:
+            flag()
 
     # -------------------------------------------------------------- life cycle
     def scene(self) -> Scene:
