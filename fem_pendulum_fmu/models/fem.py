@@ -281,7 +281,8 @@ class FemModel:
         scale = max(float(np.max(np.abs(dt * xs.v))), 1e-12)
         if self._jac is not None and not self._jac_ready:
             self._rebuild_held_jacobian(xs, dt, torque)
-        refresh = self._jac is None or self._jac.dt != dt
+        # a different step size needs a new Jacobian; round-off in dt (masters compute t + h differently) does not
+        refresh = self._jac is None or abs(self._jac.dt - dt) > 1e-9 * dt
         last = math.inf
         for _ in range(NEWTON_MAX_IT):
             if refresh:
