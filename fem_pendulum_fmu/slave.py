@@ -187,8 +187,8 @@ class PendulumSlave(Fmi2Slave):
                 return
             self.model.time = self.time
             self.outputs = self.model.outputs()
-        self.init_seconds = time.perf_counter() - t0
-        LOG.debug("initialised %s in %.3f s", type(self.model).__name__, self.init_seconds)
+            self.init_seconds = time.perf_counter() - t0
+            LOG.debug("initialised %s in %.3f s", type(self.model).__name__, self.init_seconds)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         if self.init_error is not None:

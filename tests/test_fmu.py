@@ -357,3 +357,11 @@ def test_libcosim_master_matches_fmpy(fmus, tmp_path):
     assert fmpy_rows[:, 3].max() > 0 or fmpy_rows[:, 2].min() < 0.01  # driven towards the wall
     diff = np.max(np.abs(cosim - fmpy_rows), axis=0)
     assert np.all(diff <= 1e-9), diff
+
+
+@isolated
+def test_package_logging_reaches_the_fmi_logger(fmus, tmp_path):
+    fmu, _ = fmus
+    inst = Instance(fmu, **COARSE)
+    assert any(m.startswith("initialised FemModel") for m in inst.messages), inst.messages
+    inst.close()
