@@ -7,6 +7,9 @@ half-written entry (at worst two of them build the same entry once each).
 Location: the environment variable FEM_PENDULUM_CACHE, else
 $XDG_CACHE_HOME/fem_pendulum_fmu, else ~/.cache/fem_pendulum_fmu. Set
 FEM_PENDULUM_CACHE=off to disable it.
+
+Three ways in: load_or_build (bytes, e.g. an .npz), load_or_build_json, and
+cached_file (a file a callback writes, e.g. a netgen .vol mesh).
 """
 from __future__ import annotations
 
@@ -63,6 +66,23 @@ def cached_file(kind: str, key: dict[str, Any], suffix: str, write: Callable[[Pa
         LOG.warning("cache %s not usable (%s); building without it", folder, exc)
         return None
     return path
+
+
+def load_or_build(kind: str, key: dict[str, Any], build: Callable[[], bytes]) -> bytes:
+    """Bytes (e.g. an .npz) from the cache, built and stored on a miss; built without storing
+    when caching is off or the folder cannot be written."""
+    built: list[bytes] = []
+
+    def write(path: Path) -> None:
+        built.append(bytes(build()))
+        path.write_bytes(built[0])
+
+    path = cached_file(kind, key, ".bin", write)
+    if built:
+        return built[0]
+    if path is None:
+        return bytes(build())
+    return path.read_bytes()
 
 
 def load_or_build_json(kind: str, key: dict[str, Any], build: Callable[[], Any]) -> Any:

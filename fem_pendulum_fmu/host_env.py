@@ -17,11 +17,12 @@ from pathlib import Path
 def host_environment() -> dict[str, str]:
     libdir = sysconfig.get_config_var("LIBDIR") or ""
     ldlibrary = sysconfig.get_config_var("LDLIBRARY") or ""
-    site = sysconfig.get_paths()["purelib"]
+    paths = sysconfig.get_paths()
+    site = dict.fromkeys([paths["purelib"], paths["platlib"]])  # the venv's site-packages, once each
     return {
         "LD_PRELOAD": str(Path(libdir) / ldlibrary),
         "PYTHONHOME": sys.base_prefix,
-        "PYTHONPATH": os.pathsep.join([site, sysconfig.get_paths()["platlib"]]),
+        "PYTHONPATH": os.pathsep.join(site),
         "PATH": os.pathsep.join([str(Path(sys.executable).parent), "$PATH"]),
     }
 

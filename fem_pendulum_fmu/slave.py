@@ -140,7 +140,7 @@ class PendulumSlave(Fmi2Slave):
         self.values[name] = value
 
     def _set_torque(self, value: float) -> None:
-        self.torque = float(value)  # validated at doStep, where the error can be reported as Discard
+        self.torque = float(value)  # checked at doStep, which then answers fmi2Error and keeps the state
 
     def _error(self, msg: str) -> None:
         """Log with status error and make the FMI call in progress answer fmi2Error (see shim/)."""
@@ -238,13 +238,31 @@ class PendulumSlave(Fmi2Slave):
                 "values": dict(self.values), "initialised": self.initialised}
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
-        if "error" in state:
-            self._error(f"FMU state not restored, the state is unchanged: {state['error']}")
+        """Restore a state of this FMU taken with the same parameters; anything else is refused
+        (fmi2Error, state unchanged), never raised: an exception would be fmi2Fatal."""
+        problem = state.get("error") or self._state_mismatch(state)
+        if problem is None and state["model"] is not None:
+            try:
+                self.model.set_state(state["model"].copy())
+            except Exception as exc:  # a state of another fidelity or mesh: set_state checks and raises
+                problem = f"{type(exc).__name__}: {exc}"
+        if problem is not None:
+            self._error(f"FMU state not restored, the state is unchanged: {problem}")
             return
-        if state["model"] is not None and self.model is not None:
-            self.model.set_state(state["model"].copy())
+        if state["model"] is not None:
             self.outputs = self.model.outputs()
         self.torque = float(state["torque"])
+
+    def _state_mismatch(self, state: dict[str, Any]) -> str | None:
+        """Why `state` cannot be restored in this instance, or None."""
+        if (state["model"] is None) != (self.model is None):
+            return (f"it was taken {'before' if state['model'] is None else 'after'} initialisation and this "
+                    f"instance is {'not ' if self.model is None else ''}initialised")
+        for name, value in state["values"].items():
+            if self.values.get(name) != value:
+                return (f"it was taken with parameter {name} = {value!r}, this instance has "
+                        f"{self.values.get(name)!r}")
+        return None
 
     @staticmethod
     def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:

@@ -61,3 +61,26 @@ def test_cached_mesh_gives_bit_identical_results(tmp_path, monkeypatch):
     assert cold[0] == cold[1] == off
     assert any(f.suffix == ".vol" for f in tmp_path.iterdir())
     assert np.isfinite(off)
+
+
+def test_bytes_entries_round_trip_an_npz(tmp_path, monkeypatch):
+    import io
+
+    monkeypatch.setenv(cache.ENV, str(tmp_path))
+    calls = []
+
+    def build() -> bytes:
+        calls.append(1)
+        buf = io.BytesIO()
+        np.savez(buf, x=np.linspace(0.0, 1.0, 7))
+        return buf.getvalue()
+
+    key = {"mesh_size": 0.03, "order": 2}
+    first = cache.load_or_build("modes", key, build)
+    again = cache.load_or_build("modes", dict(reversed(key.items())), build)  # key order does not matter
+    assert first == again and len(calls) == 1
+    assert np.array_equal(np.load(io.BytesIO(again))["x"], np.linspace(0.0, 1.0, 7))
+    cache.load_or_build("modes", {**key, "order": 3}, build)
+    assert len(calls) == 2
+    monkeypatch.setenv(cache.ENV, "off")
+    assert cache.load_or_build("modes", key, build) == first and len(calls) == 3

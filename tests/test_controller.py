@@ -1,6 +1,7 @@
 """Controller in the loop: PID FMU + torque-limited drive + pendulum FMU (fixed-step fmpy master)."""
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import sys
@@ -12,54 +13,79 @@ import pytest
 from fem_pendulum_fmu.host_env import host_environment
 from fem_pendulum_fmu.masters.controller_loop import LoopSettings, drive
 
-ROOT = Path(__file__).resolve().parents[1]
-
 LOOP = """
 import json, math, sys
 from pathlib import Path
-from fem_pendulum_fmu.masters.controller_loop import run_loop, tracking_error
-r = run_loop(Path(sys.argv[1]), Path(sys.argv[2]), stop_time=2.0, step=1e-3)
-print(json.dumps({"rms_away": tracking_error(r), "theta": r["theta"].tolist(), "gap": r["gap"].tolist(),
-                  "torque": r["torque"].tolist(), "setpoint": r["setpoint"].tolist(),
+from fem_pendulum_fmu.masters.controller_loop import run_loop, tracking_error, wall_impacts
+r = run_loop(Path(sys.argv[1]), Path(sys.argv[2]), stop_time=2.0, step=1e-3, start_values=json.loads(sys.argv[3]))
+print(json.dumps({"rms_away": tracking_error(r), "impacts": wall_impacts(r).tolist(),
+                  **{k: r[k].tolist() for k in ("time", "theta", "gap", "torque", "setpoint")},
                   "balance": (r["energy.total"] - r["energy.total"][0] - r["energy.torque_work"]).tolist()}))
 import os; sys.stdout.flush(); os._exit(0)  # skip interpreter teardown with the FMUs loaded
 """
 
 
-@pytest.fixture(scope="module")
-def loop(tmp_path_factory):
-    out = tmp_path_factory.mktemp("dist")
-    subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--output", str(out / "FemPendulum.fmu")],
-                   check=True, cwd=ROOT, capture_output=True)
-    run = subprocess.run([sys.executable, "-c", LOOP, str(out / "FemPendulum.fmu"), str(out / "PidController.fmu")],
-                         check=True, capture_output=True, text=True)
-    import json
-
+def run_loop(fmus, start_values: dict) -> dict:
+    run = subprocess.run([sys.executable, "-c", LOOP, str(fmus[0]), str(fmus[1]), json.dumps(start_values)],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-3000:]
     return {k: np.array(v) if isinstance(v, list) else v for k, v in json.loads(run.stdout.strip().splitlines()[-1]).items()}
 
 
-def test_tracking_error_away_from_the_wall(loop):
-    # Measured 3.5 degrees RMS over the half-periods with a positive set-point (the wall
-    # blocks the others): the PID lags the 0.75 Hz sine and starts each swing from rest
-    # against the wall (fem-pendulum-control prints it). 5 degrees bounds it with margin.
-    assert loop["rms_away"] < math.radians(5.0), math.degrees(loop["rms_away"])
-    assert loop["theta"].max() > math.radians(15.0)  # it does swing out towards +20 degrees
+@pytest.fixture(scope="module")
+def fem_loop(fmus):
+    return run_loop(fmus, {})  # the FMU's defaults: the full FE model, stiff steel pendulum
 
 
-def test_every_swing_to_negative_angles_ends_on_the_wall(loop):
-    gap, sp = loop["gap"], loop["setpoint"]
-    # set-point negative between 0.667 s and 1.333 s: the head bounces on the wall repeatedly
-    window = (np.arange(len(gap)) * 1e-3 > 0.7) & (np.arange(len(gap)) * 1e-3 < 1.3)
-    near = gap[window] < 0.5e-3
-    bounces = int(np.sum(near[1:] & ~near[:-1]))
-    assert bounces >= 5, bounces
-    assert np.all(loop["theta"] > -math.radians(1.0))  # the wall holds it
-    assert np.max(np.abs(loop["torque"])) <= 15.0
+@pytest.fixture(scope="module")
+def rigid_loop(fmus):
+    return run_loop(fmus, {"model.fidelity": 2})
 
 
-def test_energy_balance_holds_in_the_loop(loop):
+def linear_tracking_rms() -> float:
+    """RMS error of the linearised loop in steady state, without the wall (rad).
+
+    Rigid pendulum of the design's numbers (I = 0.0445 kg m^2, m g c = 1.091 * 9.81 * 0.1817
+    N.m/rad) under the PID: theta/setpoint = C(s) / (I s^2 + m g c + C(s)), C = Kp + Ki/s + Kd s."""
+    s = LoopSettings()
+    w = 2j * math.pi * s.frequency
+    c = s.kp + s.ki / w + s.kd * w
+    ratio = c / (0.0445 * w**2 + 1.091 * 9.81 * 0.1817 + c)
+    return abs(1 - ratio) * s.amplitude / math.sqrt(2)
+
+
+def test_tracking_error_away_from_the_wall(fem_loop, rigid_loop):
+    # Measured (fem-pendulum-control): 3.8 deg RMS with the FE model, 3.7 deg with the rigid one,
+    # over the half-periods with a positive set-point (the wall blocks the others). The linear loop
+    # lags the 0.75 Hz sine by 1.2 deg RMS in steady state (linear_tracking_rms); each positive
+    # half-period starts from rest against the wall, which the PID needs about 0.15 s to catch up
+    # from, so the error is about 3 times the steady-state one. 5 deg bounds it with margin; 2 deg
+    # (below the measured value) would mean the wall was not in the loop.
+    assert 1.0 < math.degrees(linear_tracking_rms()) < 1.5
+    for loop in (fem_loop, rigid_loop):
+        assert math.radians(2.0) < loop["rms_away"] < math.radians(5.0), math.degrees(loop["rms_away"])
+        assert loop["theta"].max() > math.radians(15.0)  # it does swing out towards +20 degrees
+    # the stiff steel pendulum tracks like a rigid one: same error within 0.5 deg
+    assert abs(fem_loop["rms_away"] - rigid_loop["rms_away"]) < math.radians(0.5)
+
+
+def test_every_swing_to_negative_angles_ends_on_the_wall(fem_loop, rigid_loop):
+    for loop in (fem_loop, rigid_loop):
+        impacts = loop["impacts"]
+        # set-point negative from 0.667 s to 1.333 s (and again from 2.0 s): the controller keeps
+        # driving the head into the wall, which it hits again and again (measured: 13 rebounds)
+        during = impacts[(impacts > 0.66) & (impacts < 1.34)]
+        assert len(during) >= 10, impacts
+        assert np.all(np.diff(during) < 0.1)  # no swing in that half-period escapes the wall
+        assert not np.any((impacts > 0.1) & (impacts < 0.66)), impacts  # nor hits it while swinging out
+        assert loop["gap"].min() < 0.0  # the samples do catch penetration
+        assert np.all(loop["theta"] > -math.radians(1.0))  # the wall holds it
+        assert np.max(np.abs(loop["torque"])) <= 15.0
+
+
+def test_energy_balance_holds_in_the_loop(fem_loop):
     swing = 1.091 * 9.81 * 0.1817 * (1 - math.cos(math.radians(20)))
-    assert np.max(np.abs(loop["balance"])) < 1e-3 * swing
+    assert np.max(np.abs(fem_loop["balance"])) < 1e-3 * swing
 
 
 def test_drive_limits_the_torque():
@@ -67,7 +93,17 @@ def test_drive_limits_the_torque():
     assert abs(LoopSettings().setpoint(1 / 3) - math.radians(20.0)) < 1e-12
 
 
+def test_pid_saturates_and_stops_integrating():
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fem_pendulum_fmu" / "masters"))
+    from fem_pendulum_pid_entry import Pid
+
+    pid = Pid(kp=10.0, ki=4.0, kd=0.0, u_max=15.0)
+    assert pid.update(1.0, 0.0, 1e-3) == pytest.approx(10.004)
+    assert pid.update(10.0, 0.0, 1e-3) == 15.0  # saturated
+    assert pid.integral == pytest.approx(1e-3)  # the saturated step did not wind up the integral
+
+
 def test_host_environment_names_libpython_and_this_environment():
     env = host_environment()
-    assert "libpython" in env["LD_PRELOAD"]
+    assert "libpython" in env["LD_PRELOAD"] and Path(env["LD_PRELOAD"]).exists()
     assert Path(sys.executable).parent.as_posix() in env["PATH"]
