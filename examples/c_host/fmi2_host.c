@@ -1,0 +1,76 @@
+/* A minimal C FMI 2.0 co-simulation master for the FemPendulum FMU: what a C/C++ host does.
+ *
+ * Build:  cc -I<fmpy>/c-code fmi2_host.c -ldl -o fmi2_host   (fmi2Functions.h from FMPy or the FMI standard)
+ * Run:    eval "$(fem-pendulum-host-env)"   # libpython preloaded, the Python environment of the FMU
+ *         ./fmi2_host <unzipped FMU folder> <guid> <steps> <vr model.fidelity> <vr theta>
+ *
+ * Runs the rigid fidelity for <steps> steps of 1 ms, then sends a NaN torque (which the FMU
+ * refuses with fmi2Error, state kept) and prints theta after every step.
+ */
+#include <dlfcn.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "fmi2Functions.h"
+
+
+static void log_message(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String category,
+                        fmi2String message, ...) {
+    (void)env;
+    fprintf(stderr, "[%s status %d %s] %s\n", name, (int)status, category, message);
+}
+
+#define LOAD(name)                                                    \
+    name##TYPE *name = (name##TYPE *)dlsym(lib, #name);               \
+    if (name == NULL) {                                               \
+        fprintf(stderr, "the FMU's binary has no %s\n", #name);       \
+        return 2;                                                     \
+    }
+
+int main(int argc, char **argv) {
+    if (argc != 6) {
+        fprintf(stderr, "usage: %s FMU_FOLDER GUID STEPS VR_FIDELITY VR_THETA\n", argv[0]);
+        return 1;
+    }
+    char binary[4096], resources[4096];
+    snprintf(binary, sizeof binary, "%s/binaries/linux64/FemPendulum.so", argv[1]);
+    snprintf(resources, sizeof resources, "file://%s/resources", argv[1]);
+    void *lib = dlopen(binary, RTLD_NOW | RTLD_LOCAL);
+    if (lib == NULL) {
+        fprintf(stderr, "cannot load %s: %s\n", binary, dlerror());
+        return 2;
+    }
+    LOAD(fmi2Instantiate) LOAD(fmi2SetupExperiment) LOAD(fmi2EnterInitializationMode)
+    LOAD(fmi2ExitInitializationMode) LOAD(fmi2DoStep) LOAD(fmi2GetReal) LOAD(fmi2SetReal)
+    LOAD(fmi2SetInteger) LOAD(fmi2Terminate) LOAD(fmi2FreeInstance)
+
+    fmi2CallbackFunctions callbacks = {log_message, calloc, free, NULL, NULL};
+    fmi2Component c = fmi2Instantiate("c_host", fmi2CoSimulation, argv[2], resources, &callbacks, fmi2False, fmi2True);
+    if (c == NULL) {
+        fprintf(stderr, "fmi2Instantiate failed: is the host environment set (fem-pendulum-host-env)?\n");
+        return 3;
+    }
+    fmi2ValueReference fidelity = (fmi2ValueReference)atoi(argv[4]), theta = (fmi2ValueReference)atoi(argv[5]);
+    fmi2ValueReference torque = 0;
+    fmi2Integer rigid = 2;
+    fmi2Real t = 0.0, h = 1e-3, value, bad = NAN;
+    if (fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK ||
+        fmi2EnterInitializationMode(c) != fmi2OK || fmi2SetInteger(c, &fidelity, 1, &rigid) != fmi2OK ||
+        fmi2ExitInitializationMode(c) != fmi2OK) {
+        fprintf(stderr, "initialisation failed\n");
+        return 4;
+    }
+    int steps = atoi(argv[3]);
+    for (int k = 0; k < steps; k++) {
+        if (fmi2DoStep(c, t, h, fmi2True) != fmi2OK) return 5;
+        t = (k + 1) * h;
+        fmi2GetReal(c, &theta, 1, &value);
+        printf("%.17g %.17g\n", t, value);
+    }
+    fmi2SetReal(c, &torque, 1, &bad);
+    printf("nan-torque-status %d\n", (int)fmi2DoStep(c, t, h, fmi2True));
+    fmi2Terminate(c);
+    fmi2FreeInstance(c);
+    return 0;
+}
