@@ -96,6 +96,7 @@ class PendulumSlave(Fmi2Slave):
         self.model = None
         self.outputs = None
         self.init_error: str | None = None
+        self.broken: str | None = None  # set when the model raised something other than StepFailed
         self.initialised = False
         self.terminated = False
         self.time = self.interface.start_time
@@ -197,6 +198,9 @@ class PendulumSlave(Fmi2Slave):
         if self.model is None or self.terminated:
             self._error("doStep refused: the FMU is " + ("terminated" if self.terminated else "not initialised"))
             return False
+        if self.broken is not None:
+            self._error(f"doStep refused: {self.broken}; restore an FMU state to go on")
+            return False
         if not (math.isfinite(step_size) and step_size > 0):
             self._error(f"doStep refused: communication step size {step_size!r} must be a finite number > 0")
             return False
@@ -214,7 +218,10 @@ class PendulumSlave(Fmi2Slave):
                 self.log(f"doStep discarded at t = {current_time!r}, state kept: {exc}", Fmi2Status.discard)
                 return False
             except Exception as exc:  # keep the host alive whatever happens in the model
-                self._error(f"doStep failed at t = {current_time!r} ({type(exc).__name__}: {exc}); state kept")
+                # unlike StepFailed, nothing promises the model's state is intact: refuse to go on
+                # from it until the master restores an FMU state
+                self.broken = f"the model failed at t = {current_time!r} ({type(exc).__name__}: {exc})"
+                self._error(f"doStep failed: {self.broken}; restore an FMU state to go on")
                 return False
         return True
 
@@ -251,6 +258,7 @@ class PendulumSlave(Fmi2Slave):
             return
         if state["model"] is not None:
             self.outputs = self.model.outputs()
+            self.broken = None
         self.torque = float(state["torque"])
 
     def _state_mismatch(self, state: dict[str, Any]) -> str | None:

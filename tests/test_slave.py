@@ -94,10 +94,16 @@ def test_a_step_the_model_cannot_complete_is_discarded(slave):
 
 
 def test_an_unexpected_model_exception_is_an_error_not_a_crash(slave):
+    saved = slave._get_fmu_state()
     slave.model.fail = ZeroDivisionError("division by zero")
     assert slave.do_step(0.0, 1e-3) is False
     [(status, msg)] = statuses(slave)
     assert status == Fmi2Status.error and "ZeroDivisionError" in msg
+    slave.model.fail = None
+    # nothing promises the model's state survived: no step from it until a state is restored
+    assert slave.do_step(0.0, 1e-3) is False and "restore an FMU state" in slave.log_queue[-1].msg
+    slave._set_fmu_state(saved)
+    assert slave.do_step(0.0, 1e-3) is True
 
 
 def test_parameter_after_initialisation_is_refused_and_kept(slave):
