@@ -151,6 +151,7 @@ class FemModel:
         self._jac: JacobianPoint | None = None
         self._jac_ready = False
         self._active_local: set[int] = set()
+        self._closest = None  # (state, closest-point answer) of the last state asked about
         self._res = self.w.vec.CreateVector()
 
         # linear functionals and matrices for outputs (assembled once)
@@ -174,6 +175,9 @@ class FemModel:
         self.inertia0 = Integrate(rho * h * (x * x + y * y), mesh, definedon=mesh.Materials("pendulum"))
         self.total_mass = Integrate(rho * h, mesh, definedon=mesh.Materials("pendulum"))
         self.com_depth = -Integrate(rho * h * y, mesh, definedon=mesh.Materials("pendulum")) / self.total_mass
+        # work of a unit torque's follower load at the configuration gf_u over the displacement gf_v
+        unit_load = self._torque_scale * weight * (Cof(Id(2) + Grad(self.gf_u).Trace()) * N)
+        self._unit_torque_work_cf = InnerProduct(unit_load, self.gf_v)
         F = material.deformation_gradient(self.gf_u)
         C = material.right_cauchy_green(F)
         self._strain_cf = [(r, h * material.energy_density(C, *mat.lame)) for r, mat in bodies]
@@ -329,13 +333,13 @@ class FemModel:
         return False
 
     def _torque_work_increment(self, u0: np.ndarray, u1: np.ndarray, torque: float) -> float:
+        """Work of the follower load at the midpoint configuration over the step (form built once in _build)."""
         if torque == 0.0:
             return 0.0
         self.gf_u.vec.FV().NumPy()[:] = 0.5 * (u0 + u1)
         self.gf_v.vec.FV().NumPy()[:] = u1 - u0
-        Fb = Id(2) + Grad(self.gf_u).Trace()
-        load = torque * self._torque_scale * (x / self.scene.geometry.rod_half_width) * (Cof(Fb) * specialcf.normal(2))
-        return float(Integrate(InnerProduct(load, self.gf_v), self.mesh, BND, definedon=self.mesh.Boundaries("hinge")))
+        return torque * float(Integrate(self._unit_torque_work_cf, self.mesh, BND,
+                                        definedon=self.mesh.Boundaries("hinge")))
 
     # ------------------------------------------------------ contact geometry
     def _head_positions(self, u: np.ndarray) -> np.ndarray:
@@ -364,7 +368,13 @@ class FemModel:
         pen = np.where(level, np.maximum(b.x_max + shift[:, 0] - p[:, 0], 0.0), 0.0)
         return 0.5 * h * k * float(self._head_weights @ (pen * pen)), h * k * float(self._head_weights @ pen)
 
-    def gap_and_rate(self, xs: FemState) -> tuple[float, float]:
+    def _closest_point(self, xs: FemState):
+        """(positions, signed distances, normal at and rate of the closest head point, its index).
+
+        The stepper asks for the gap and then for the contact scales of the same
+        state; the last answer is kept so the boundary is evaluated once."""
+        if self._closest is not None and self._closest[0] is xs:
+            return self._closest[1]
         p = self._head_positions(xs.u)
         if self.deformable_wall:
             p = p - self._wall_face_shift(p)
@@ -372,19 +382,20 @@ class FemModel:
         i = int(np.argmin(dist))
         self.gf_v.vec.FV().NumPy()[:] = xs.v
         vel = self.gf_v(self._head_points)[i]
-        return float(dist[i]), float(nx[i] * vel[0] + ny[i] * vel[1])
+        result = (p, dist, (float(nx[i]), float(ny[i])), float(nx[i] * vel[0] + ny[i] * vel[1]), i)
+        self._closest = (xs, result)
+        return result
+
+    def gap_and_rate(self, xs: FemState) -> tuple[float, float]:
+        _, dist, _, rate, i = self._closest_point(xs)
+        return float(dist[i]), rate
 
     def contact_scales(self, xs: FemState) -> tuple[float, float]:
         """Contact duration and depth estimated from the rigid-body effective mass at the closest point."""
         if not self.contact_on and self._wall_contact is None:
             return math.inf, 0.0
-        p = self._head_positions(xs.u)
-        dist, nx, ny = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self.scene.block)
-        i = int(np.argmin(dist))
-        self.gf_v.vec.FV().NumPy()[:] = xs.v
-        vel = self.gf_v(self._head_points)[i]
-        rate = nx[i] * vel[0] + ny[i] * vel[1]
-        lever = abs(p[i, 0] * ny[i] - p[i, 1] * nx[i])
+        p, dist, (nx, ny), rate, i = self._closest_point(xs)
+        lever = abs(p[i, 0] * ny - p[i, 1] * nx)
         m_eff = self.inertia0 / max(lever, 1e-3 * self.scene.geometry.head_centre_depth) ** 2
         return contact_time_scale(dist, self._head_weights, m_eff, rate, self.scene.contact.stiffness * self.scene.pendulum.thickness)
 
