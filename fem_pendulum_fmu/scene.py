@@ -69,6 +69,7 @@ class ModelSettings:
     order: int = 2
     compute_stress: bool = False
     threads: int = 1  # NGSolve TaskManager threads; 1 keeps results bit-identical
+    modes: int = 6  # elastic modes of the reduced fidelity
 
 
 @dataclass(frozen=True)
@@ -163,7 +164,7 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
     "solver.max_step": (1e-7, 0.1, True, True),
     "solver.tolerance": (1e-8, 0.1, True, True),
 }
-_INT_RANGES = {"model.order": (2, 5), "model.threads": (1, 64)}  # order 1: see docs/fem.md
+_INT_RANGES = {"model.order": (2, 5), "model.threads": (1, 64), "model.modes": (1, 40)}  # order 1: see docs/fem.md
 _CHOICES = {"wall.kind": WALL_KINDS, "model.fidelity": FIDELITIES}
 
 
