@@ -76,6 +76,7 @@ class ModelSettings:
 class SolverSettings:
     max_step: float = 2e-3  # largest internal step in free flight, s
     tolerance: float = 1e-3  # accuracy target of step control (see stepping.py)
+    max_substeps: int = 0  # internal steps allowed per doStep (advance); 0 = no limit
 
 
 @dataclass(frozen=True)
@@ -160,11 +161,12 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
     "wall.nu": (0.0, 0.5, True, False),
     "wall.rho": (0.0, math.inf, False, False),
     "contact.stiffness": (0.0, math.inf, True, False),
-    "model.mesh_size": (0.002, 0.1, True, True),
+    "model.mesh_size": (0.0, 0.1, False, True),  # the lower limit is the memory estimate below
     "solver.max_step": (1e-7, 0.1, True, True),
     "solver.tolerance": (1e-8, 0.1, True, True),
 }
-_INT_RANGES = {"model.order": (2, 5), "model.threads": (1, 64), "model.modes": (1, 40)}  # order 1: see docs/fem.md
+_INT_RANGES = {"model.order": (2, 5), "model.threads": (1, 64), "model.modes": (1, 40),  # order 1: see docs/fem.md
+               "solver.max_substeps": (0, 10**9)}
 _CHOICES = {"wall.kind": WALL_KINDS, "model.fidelity": FIDELITIES}
 
 
@@ -194,4 +196,59 @@ def validate(scene: Scene) -> Scene:
             raise ValueError(f"parameter {name} = {value!r} is not allowed: choose one of {', '.join(choices)}")
     if not isinstance(scene.model.compute_stress, bool):
         raise ValueError(f"parameter model.compute_stress = {scene.model.compute_stress!r}: allowed is true or false")
+    if scene.model.fidelity != "rigid":  # the rigid fidelity meshes nothing with these settings
+        need, have = mesh_memory_estimate(scene), physical_memory()
+        if need > have:
+            raise ValueError(
+                f"parameters model.mesh_size = {scene.model.mesh_size!r} with model.order = {scene.model.order} "
+                f"would need about {need / 2**30:.3g} GiB (estimate), more than this machine's "
+                f"{have / 2**30:.3g} GiB: allowed are mesh sizes down to about "
+                f"{smallest_mesh_size(scene, have):.2g} m at this order")
     return scene
+
+
+# Memory of the FE model, measured (python benchmarks/robustness.py memory, docs/robustness.md): peak
+# resident size per unknown 5.4-8.3 kB for 5e3-1.2e5 unknowns at orders 2-5; the estimate takes
+# (3 + order) kB per unknown, twice over, plus a fixed 64 MB.
+_BYTES_PER_DOF_PER_ORDER = (3000.0, 1000.0)
+_MEMORY_SAFETY = 2.0
+_MEMORY_BASE = 64 * 2**20
+
+
+def meshed_area(scene: Scene) -> float:
+    """Area the FE mesh covers (m^2), slightly over-estimated: rod rectangle plus ring, plus the block when meshed."""
+    g = scene.geometry
+    area = 2.0 * g.rod_half_width * g.head_centre_depth + math.pi * (g.head_radius**2 - g.hole_radius**2)
+    if scene.wall.kind == "deformable":
+        b = scene.block
+        area += (b.x_max - b.x_min) * (b.y_max - b.y_min)
+    return area
+
+
+def estimated_unknowns(scene: Scene, mesh_size: float | None = None) -> float:
+    """Unknowns of the FE model: about 2.4 A / h^2 triangles with 1.1 order^2 vector unknowns each
+    (within 25 % of netgen's counts from h = 0.0025 to 0.01 m)."""
+    h = scene.model.mesh_size if mesh_size is None else mesh_size
+    return 1.1 * scene.model.order**2 * 2.4 * meshed_area(scene) / (h * h)
+
+
+def mesh_memory_estimate(scene: Scene, mesh_size: float | None = None) -> float:
+    """Bytes the FE model would need (mesh, matrices, UMFPACK factors), a deliberate over-estimate."""
+    per_dof = _BYTES_PER_DOF_PER_ORDER[0] + _BYTES_PER_DOF_PER_ORDER[1] * scene.model.order
+    return _MEMORY_BASE + _MEMORY_SAFETY * per_dof * estimated_unknowns(scene, mesh_size)
+
+
+def smallest_mesh_size(scene: Scene, memory: float) -> float:
+    """The mesh size whose estimate just fits `memory` bytes."""
+    per_unknown_h2 = (mesh_memory_estimate(scene, 1.0) - _MEMORY_BASE)
+    return math.sqrt(per_unknown_h2 / max(memory - _MEMORY_BASE, 1.0))
+
+
+def physical_memory() -> float:
+    """This machine's physical memory in bytes (inf where the OS does not tell)."""
+    import os
+
+    try:
+        return float(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return math.inf

@@ -15,7 +15,11 @@ The rule, in words (it is what `solver.max_step` and `solver.tolerance` mean):
   it had;
 * the last step lands exactly on the requested time; a remainder shorter than
   `min_step` is merged into the step before it, so round-off never leaves a
-  vanishing step.
+  vanishing step;
+* `max_substeps` (solver.max_substeps, 0 = no limit) caps the accepted steps
+  of one advance: an advance that would need more fails with StepFailed
+  (state kept), so a master learns of a stall at once and can retry with a
+  shorter communication step.
 
 Models supply the single energy-consistent step and the contact scales; this
 module only decides the step sizes.
@@ -49,6 +53,13 @@ class StepControl:
     tolerance: float = 1e-3
     min_step: float = 1e-9
     max_onset_iterations: int = 8
+    max_substeps: int = 0  # accepted steps allowed per advance; 0 = no limit
+
+    @classmethod
+    def for_scene(cls, scene) -> "StepControl":
+        """The step control a scene's solver.* parameters describe (every fidelity uses this)."""
+        return cls(max_step=scene.solver.max_step, tolerance=scene.solver.tolerance,
+                   max_substeps=scene.solver.max_substeps)
 
     @property
     def steps_per_contact(self) -> int:
@@ -96,6 +107,10 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float,
         x = x_new
         t = t_end if dt >= remaining else t + dt
         substeps += 1
+        if control.max_substeps and substeps >= control.max_substeps and t < t_end:
+            raise StepFailed(f"the advance to t = {t_end:.9g} s needs more than solver.max_substeps = "
+                             f"{control.max_substeps} internal steps (stopped at t = {t:.9g} s); "
+                             "retry with a shorter communication step")
         dt_cap = min(control.max_step, 2.0 * dt_cap)
     min_gap = min(min_gap, model.gap_and_rate(x)[0])
     return AdvanceResult(x, substeps, rejected, min_gap)

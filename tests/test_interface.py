@@ -42,7 +42,8 @@ def test_the_design_contract_is_declared():
         assert (v.causality, v.type, v.unit) == (causality, typ, unit), name
     assert ifc.by_name("theta").display_unit == "deg" and ifc.by_name("theta0").display_unit == "deg"
     extra = {v.name for v in ifc.variables} - set(CONTRACT)
-    assert extra == {"model.threads", "wall.kind_index", "model.fidelity_index", "model.modes"}
+    assert extra == {"model.threads", "wall.kind_index", "model.fidelity_index", "model.modes",
+                     "solver.max_substeps"}
     assert [v.value_reference for v in ifc.variables] == list(range(len(ifc.variables)))
 
 

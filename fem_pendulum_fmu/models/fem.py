@@ -65,7 +65,7 @@ class FemModel:
         self.scene = validate(scene)
         self._refine_like_seed = refine_like_seed
         ngs.SetNumThreads(scene.model.threads)
-        self.control = StepControl(max_step=scene.solver.max_step, tolerance=scene.solver.tolerance)
+        self.control = StepControl.for_scene(scene)
         self._build()
         self.time = 0.0
         self._state = self._initial_state()
@@ -403,8 +403,15 @@ class FemModel:
     def advance(self, t_end: float, torque: float) -> Outputs:
         check_advance_args(self.time, t_end, torque)
         torque = float(torque)
-        with ngs.TaskManager() if self.scene.model.threads > 1 else nullcontext():
-            result = advance_steps(self, self._state, self.time, t_end, torque, self.control)
+        held = self._jac
+        try:
+            with ngs.TaskManager() if self.scene.model.threads > 1 else nullcontext():
+                result = advance_steps(self, self._state, self.time, t_end, torque, self.control)
+        except StepFailed:
+            # the held Jacobian is part of the state: put back the one from before the failed
+            # advance, so that a retry continues exactly as if it had never been tried
+            self._jac, self._jac_ready = held, False
+            raise
         self._state = result.state
         self.time = float(t_end)
         self.last_min_gap = result.min_gap

@@ -98,7 +98,7 @@ class RigidModel:
         self._arc_length = 2.0 * math.pi - 2.0 * half_gap
         # energy law E = C delta^2.5 of a circle pressed into a flat face (delta << R)
         self._flat_law = 8.0 / 15.0 * self._hk * math.sqrt(2.0 * self._radius)
-        self.control = StepControl(max_step=scene.solver.max_step, tolerance=scene.solver.tolerance)
+        self.control = StepControl.for_scene(scene)
         self._memo: dict[float, tuple] = {}  # pure functions of the angle, so caching keeps runs deterministic
         self._gap_memo: dict[float, tuple[float, float]] = {}
         self.time = 0.0
