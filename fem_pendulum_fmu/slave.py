@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from pythonfmu import Fmi2Slave
 from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability
-from pythonfmu.variables import Boolean, Integer, Real
+from pythonfmu.variables import Boolean, Integer, Real, String
 
 from . import interface as fmi_interface
 from .models import StepFailed, create
@@ -149,6 +149,52 @@ class PendulumSlave(Fmi2Slave):
         flag = _error_flag(self.resources)
         if flag is not None:
             flag()
+
+    # ------------------------------------------------- guarded variable access
+    # pythonfmu raises (fmi2Fatal) on an unknown value reference, a variable of another type or
+    # setting an output; these answer fmi2Error with a log message instead and change nothing.
+    def _variables(self, vrs, kind, call: str, setting: bool = False):
+        """The variables for `vrs`, or None after flagging an error naming the first bad reference."""
+        for vr in vrs:
+            var = self.vars.get(vr)
+            if not isinstance(var, kind):
+                what = "no variable of this FMU" if var is None else f"{var.name}, not of type {kind.__name__}"
+                self._error(f"{call} refused: value reference {vr} is {what} (value references are 0 to "
+                            f"{len(self.vars) - 1}, see modelDescription.xml); nothing was changed")
+                return None
+            if setting and var.setter is None:
+                self._error(f"{call} refused: {var.name} (value reference {vr}) is an {var.causality.name} and "
+                            "cannot be set; nothing was changed")
+                return None
+        return vrs
+
+    def get_real(self, vrs):
+        return super().get_real(vrs) if self._variables(vrs, Real, "fmi2GetReal") is not None else [0.0] * len(vrs)
+
+    def get_integer(self, vrs):
+        return super().get_integer(vrs) if self._variables(vrs, Integer, "fmi2GetInteger") is not None else [0] * len(vrs)
+
+    def get_boolean(self, vrs):
+        return super().get_boolean(vrs) if self._variables(vrs, Boolean, "fmi2GetBoolean") is not None else [False] * len(vrs)
+
+    def get_string(self, vrs):
+        return super().get_string(vrs) if self._variables(vrs, String, "fmi2GetString") is not None else [""] * len(vrs)
+
+    def set_real(self, vrs, values):
+        if self._variables(vrs, Real, "fmi2SetReal", setting=True) is not None:
+            super().set_real(vrs, values)
+
+    def set_integer(self, vrs, values):
+        if self._variables(vrs, Integer, "fmi2SetInteger", setting=True) is not None:
+            super().set_integer(vrs, values)
+
+    def set_boolean(self, vrs, values):
+        if self._variables(vrs, Boolean, "fmi2SetBoolean", setting=True) is not None:
+            super().set_boolean(vrs, values)
+
+    def set_string(self, vrs, values):
+        if self._variables(vrs, String, "fmi2SetString", setting=True) is not None:
+            super().set_string(vrs, values)
 
     # -------------------------------------------------------------- life cycle
     def scene(self) -> Scene:

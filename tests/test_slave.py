@@ -160,3 +160,22 @@ def test_package_log_records_reach_the_fmi_log_under_categories(slave):
         ("error line", Fmi2Status.error, "logStatusError")]
     slave_module.LOG.warning("outside a call")  # not routed: the handler is attached only during calls
     assert len(slave.log_queue) == 3
+
+
+@pytest.mark.parametrize("call, args, words", [
+    ("get_real", ([999],), "value reference 999 is no variable"),
+    ("set_real", ([999], [1.0]), "value reference 999 is no variable"),
+    ("get_integer", ([0],), "value reference 0 is torque, not of type Integer"),
+    ("set_boolean", ([0], [True]), "not of type Boolean"),
+    ("set_real", ([1], [0.5]), "theta (value reference 1) is an output and cannot be set"),
+    ("get_string", ([0],), "not of type String"),
+])
+def test_a_bad_value_reference_is_an_error_not_a_crash(slave, call, args, words):
+    before = slave._get_fmu_state()
+    result = getattr(slave, call)(*args)
+    if call.startswith("get"):
+        assert len(result) == len(args[0])
+    [(status, msg)] = statuses(slave)
+    assert status == Fmi2Status.error and words in msg and "nothing was changed" in msg
+    assert slave._get_fmu_state()["values"] == before["values"] and slave.torque == before["torque"]
+    assert slave.do_step(0.0, 1e-3) is True  # and the instance goes on
