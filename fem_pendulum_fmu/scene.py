@@ -14,6 +14,7 @@ from typing import Any, Mapping
 
 WALL_KINDS = ("rigid", "deformable", "none")
 FIDELITIES = ("auto", "rigid", "reduced", "fem")
+SCHEMES = ("energy_momentum", "newmark_fixed", "newmark_gap_rule")  # the Newmark ones: the seed's, for benchmarks
 
 
 @dataclass(frozen=True)
@@ -77,6 +78,7 @@ class SolverSettings:
     max_step: float = 2e-3  # largest internal step in free flight, s
     tolerance: float = 1e-3  # accuracy target of step control (see stepping.py)
     max_substeps: int = 0  # internal steps allowed per doStep (advance); 0 = no limit
+    scheme: str = "energy_momentum"  # fem only: or the seed's Newmark schemes (seed_stepping.py)
 
 
 @dataclass(frozen=True)
@@ -167,7 +169,7 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
 }
 _INT_RANGES = {"model.order": (2, 5), "model.threads": (1, 64), "model.modes": (1, 40),  # order 1: see docs/fem.md
                "solver.max_substeps": (0, 10**9)}
-_CHOICES = {"wall.kind": WALL_KINDS, "model.fidelity": FIDELITIES}
+_CHOICES = {"wall.kind": WALL_KINDS, "model.fidelity": FIDELITIES, "solver.scheme": SCHEMES}
 
 
 def _interval(lo: float, hi: float, lo_in: bool, hi_in: bool) -> str:
@@ -196,6 +198,9 @@ def validate(scene: Scene) -> Scene:
             raise ValueError(f"parameter {name} = {value!r} is not allowed: choose one of {', '.join(choices)}")
     if not isinstance(scene.model.compute_stress, bool):
         raise ValueError(f"parameter model.compute_stress = {scene.model.compute_stress!r}: allowed is true or false")
+    if scene.solver.scheme != "energy_momentum" and scene.model.fidelity != "fem":
+        raise ValueError(f"parameter solver.scheme = {scene.solver.scheme!r} is an option of the fem fidelity only: "
+                         f"set model.fidelity = fem (it is {scene.model.fidelity!r}) or solver.scheme = energy_momentum")
     if scene.model.fidelity != "rigid":  # the rigid fidelity meshes nothing with these settings
         need, have = mesh_memory_estimate(scene), physical_memory()
         if need > have:

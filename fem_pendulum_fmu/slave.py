@@ -36,7 +36,7 @@ OUTPUT_FIELDS = {
     "theta": "theta", "omega": "omega", "gap": "gap", "contact_force": "contact_force",
     "energy.kinetic": "kinetic", "energy.potential": "potential", "energy.strain": "strain",
     "energy.contact": "contact", "energy.total": "total", "energy.torque_work": "torque_work",
-    "stress.von_mises_max": "von_mises_max", "solver.substeps": "substeps",
+    "stress.von_mises_max": "von_mises_max", "solver.substeps": "substeps", "gap_min": "min_gap",
 }
 # Integer aliases of enumerations for masters that cannot set enumerations (libcosim)
 ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}

@@ -43,7 +43,7 @@ def test_the_design_contract_is_declared():
     assert ifc.by_name("theta").display_unit == "deg" and ifc.by_name("theta0").display_unit == "deg"
     extra = {v.name for v in ifc.variables} - set(CONTRACT)
     assert extra == {"model.threads", "wall.kind_index", "model.fidelity_index", "model.modes",
-                     "solver.max_substeps"}
+                     "solver.max_substeps", "solver.scheme", "gap_min"}
     assert [v.value_reference for v in ifc.variables] == list(range(len(ifc.variables)))
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 from dataclasses import asdict, dataclass, field, fields
 from typing import Protocol, runtime_checkable
 
@@ -36,6 +37,7 @@ class Outputs:
     torque_work: float = 0.0
     von_mises_max: float = 0.0
     substeps: int = 0
+    min_gap: float = math.nan  # smallest gap at the internal steps of the last advance; nan = not reported
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)

@@ -8,6 +8,12 @@ the follower torque acts at the midpoint configuration. Over every step the
 change of kinetic + gravity + strain + contact energy equals the work of the
 torque up to the Newton tolerance, so impacts neither gain nor lose energy.
 Step sizes come from stepping.py.
+
+`solver.scheme` = newmark_fixed or newmark_gap_rule replaces that scheme by
+the seed tutorial's trapezoidal Newmark rule (beta 1/4, gamma 1/2; stress,
+contact and torque at the step's end) with the seed's step-size rules
+(seed_stepping.py), on the same mesh, material and contact law: kept only so
+that the benchmarks can compare the seed's schemes with ours on equal terms.
 """
 from __future__ import annotations
 
@@ -24,6 +30,7 @@ from .. import contact as wall_contact
 from .. import material
 from ..geometry import make_mesh
 from ..scene import Scene, validate
+from .. import seed_stepping
 from ..stepping import StepControl, advance as advance_steps
 from .base import ModelState, Outputs, StepFailed, check_advance_args
 
@@ -41,6 +48,7 @@ class FemState:
     v: np.ndarray
     lam: np.ndarray
     torque_work: float
+    a: np.ndarray | None = None  # acceleration, carried by the Newmark schemes only
 
 
 @dataclass
@@ -89,6 +97,8 @@ class FemModel:
         self.w = GridFunction(X)
         self.u0 = GridFunction(V)
         self.v0 = GridFunction(V)
+        self.a0 = GridFunction(V)  # Newmark schemes only
+        self.newmark = sc.solver.scheme != "energy_momentum"
         self.dt = Parameter(1e-3)
         self.torque_load = Parameter(0.0)
         # bodies: (region, material); the wall, when meshed, is a steel plate of the same thickness
@@ -106,9 +116,14 @@ class FemModel:
         for region, mat in bodies:
             lam, mu = mat.lame
             dg_points = 1 if mat.E / mat.rho > 1e5 else 2  # stiff bodies strain ~1e-6: one point is exact enough
-            S = material.averaged_pk2_stress(C0, C1, lam, mu, dg_points)
-            a += (mat.rho * h * (2.0 / (dt * dt)) * InnerProduct(u - self.u0 - dt * self.v0, du)
-                  + h * InnerProduct(Fm * S, Grad(du))
+            if self.newmark:  # trapezoidal Newmark: a1 = 4/dt^2 (u1 - u0 - dt v0) - a0, equilibrium at the end
+                inertia = (4.0 / (dt * dt)) * (u - self.u0 - dt * self.v0) - self.a0
+                elastic = F1 * material.pk2_stress(C1, lam, mu)
+            else:
+                inertia = (2.0 / (dt * dt)) * (u - self.u0 - dt * self.v0)
+                elastic = Fm * material.averaged_pk2_stress(C0, C1, lam, mu, dg_points)
+            a += (mat.rho * h * InnerProduct(inertia, du)
+                  + h * InnerProduct(elastic, Grad(du))
                   - mat.rho * h * InnerProduct(gvec, du)).Compile() * ngs.dx(region)
         # hinge: mean displacement of the hinge edge is zero (Lagrange multipliers q1, q2)
         a += (q1 * du[0] + q2 * du[1] + p1 * u[0] + p2 * u[1]) * ngs.ds("hinge")
@@ -117,7 +132,10 @@ class FemModel:
         weight = x / sc.geometry.rod_half_width
         arm = x * N[1] - y * N[0]
         self._torque_scale = 1.0 / Integrate(weight * arm, mesh, BND, definedon=mesh.Boundaries("hinge"))
-        Fm_b = Id(2) + 0.5 * (Grad(u).Trace() + Grad(self.u0).Trace())
+        if self.newmark:
+            Fm_b = Id(2) + Grad(u).Trace()
+        else:
+            Fm_b = Id(2) + 0.5 * (Grad(u).Trace() + Grad(self.u0).Trace())
         a += -InnerProduct(self.torque_load * weight * (Cof(Fm_b) * N), du) * ngs.ds("hinge")
         # wall contact on the head's outer boundary
         k = sc.contact.stiffness
@@ -125,7 +143,11 @@ class FemModel:
         pos = CF((x, y))
         self._contact_order = 2 * order + 40
         if self.contact_on:
-            force = wall_contact.discrete_gradient_force(pos + self.u0, pos + u, sc.block, k)
+            if self.newmark:  # the penalty force at the step's end
+                d1, grad1 = wall_contact.depth_and_gradient(pos + u, sc.block)
+                force = -ngs.IfPos(d1, k * d1, 0.0) * grad1
+            else:
+                force = wall_contact.discrete_gradient_force(pos + self.u0, pos + u, sc.block, k)
             # assembled only on head elements that can reach the block within the step
             self._active = ngs.BitArray(mesh.GetNE(BND))
             self._active.Clear()
@@ -139,8 +161,8 @@ class FemModel:
             # Phi(g) = k/2 g^2 is quadratic, so the midpoint force is the exact discrete gradient
             # while a point stays in contact; only the entry and exit of a point are approximate.
             cb = ngs.ContactBoundary(mesh.Boundaries("wall_face"), mesh.Boundaries("head"))
-            um = 0.5 * (u + self.u0)
-            um_head = 0.5 * (u.Other() + self.u0.Other())
+            um = u if self.newmark else 0.5 * (u + self.u0)
+            um_head = u.Other() if self.newmark else 0.5 * (u.Other() + self.u0.Other())
             pen = InnerProduct((pos + um) - (pos.Other() + um_head), N)
             cb.AddEnergy(ngs.IfPos(pen, 2.0 * h * 0.5 * k * pen * pen, 0.0), deformed=False)
             self._wall_contact = cb
@@ -205,8 +227,38 @@ class FemModel:
         self.gf_v.vec[:] = 0.0
         self.gf_u.Set(CF(((c - 1) * x - s * y, s * x + (c - 1) * y)), definedon=pendulum)
         self.gf_v.Set(CF((-om * (s * x + c * y), om * (c * x - s * y))), definedon=pendulum)
-        return FemState(self.gf_u.vec.FV().NumPy().copy(), self.gf_v.vec.FV().NumPy().copy(),
-                        np.zeros(2), 0.0)
+        state = FemState(self.gf_u.vec.FV().NumPy().copy(), self.gf_v.vec.FV().NumPy().copy(), np.zeros(2), 0.0)
+        if self.newmark:
+            state.a = self._consistent_acceleration(state)
+        return state
+
+    def _consistent_acceleration(self, xs: FemState) -> np.ndarray:
+        """Newmark's start acceleration from the equations of motion (M a0 = f(u0), hinge held).
+
+        The seed starts from a0 = 0, an error that the trapezoidal rule never damps;
+        a consistent start gives its scheme the fairest comparison. The velocity
+        term of the start (centripetal) is left out, as omega0 is 0 in the benchmarks."""
+        nV = self._nV
+        zero = np.zeros(nV)
+        self._set_step_inputs(xs.u, zero, 1e-3, 0.0)
+        self.a0.vec[:] = 0.0
+        if self.contact_on:
+            self._mark_active_contact(FemState(xs.u, zero, xs.lam, 0.0), 1e-3)
+        if self._wall_contact is not None:
+            self._wall_contact.Update(self.u0, self.a, intorder=WALL_CONTACT_INTORDER, maxdist=WALL_SEARCH_DISTANCE)
+        wv = self.w.vec.FV().NumPy()
+        wv[:nV], wv[nV:] = xs.u, 0.0
+        self.a.Apply(self.w.vec, self._res)  # at u = u0, v0 = a0 = 0 the inertia term vanishes: static residual
+        (u, q1, q2), (du, p1, p2) = self.X.TnT()
+        h = self.scene.pendulum.thickness
+        mass = BilinearForm(self.X)
+        mass += (q1 * du[0] + q2 * du[1] + p1 * u[0] + p2 * u[1]) * ngs.ds("hinge")
+        mass += self.scene.pendulum.rho * h * InnerProduct(u, du) * ngs.dx("pendulum")
+        if self.deformable_wall:
+            mass += self.scene.wall.rho * h * InnerProduct(u, du) * ngs.dx("wall")
+        mass.Assemble()
+        acc = (mass.mat.Inverse(self.freedofs, inverse="umfpack") * self._res).Evaluate().FV().NumPy()
+        return -acc[:nV].copy()
 
     # ------------------------------------------------------------- one step
     def step(self, xs: FemState, dt: float, torque: float) -> FemState | None:
@@ -221,6 +273,8 @@ class FemModel:
             self._mark_active_contact(xs, dt)
         if self._wall_contact is not None:
             self._wall_contact.Update(self.u0, self.a, intorder=WALL_CONTACT_INTORDER, maxdist=WALL_SEARCH_DISTANCE)
+        if self.newmark:
+            self.a0.vec.FV().NumPy()[:] = xs.a
         for _attempt in range(2):
             u1 = self._solve(xs, dt, torque)
             if u1 is None:
@@ -230,8 +284,9 @@ class FemModel:
         else:
             return None
         v1 = 2.0 / dt * (u1 - xs.u) - xs.v
+        a1 = 2.0 / dt * (v1 - xs.v) - xs.a if self.newmark else None
         work = self._torque_work_increment(xs.u, u1, torque)
-        return FemState(u1, v1, self.w.vec.FV().NumPy()[nV:].copy(), xs.torque_work + work)
+        return FemState(u1, v1, self.w.vec.FV().NumPy()[nV:].copy(), xs.torque_work + work, a1)
 
     def _set_step_inputs(self, u0: np.ndarray, v0: np.ndarray, dt: float, torque: float) -> None:
         self.dt.Set(dt)
@@ -406,7 +461,11 @@ class FemModel:
         held = self._jac
         try:
             with ngs.TaskManager() if self.scene.model.threads > 1 else nullcontext():
-                result = advance_steps(self, self._state, self.time, t_end, torque, self.control)
+                if self.newmark:
+                    result = seed_stepping.advance(self, self._state, self.time, t_end, torque,
+                                                   self.scene.solver.scheme, self.control)
+                else:
+                    result = advance_steps(self, self._state, self.time, t_end, torque, self.control)
         except StepFailed:
             # the held Jacobian is part of the state: put back the one from before the failed
             # advance, so that a retry continues exactly as if it had never been tried
@@ -416,6 +475,7 @@ class FemModel:
         self.time = float(t_end)
         self.last_min_gap = result.min_gap
         self._outputs = self._compute_outputs(self._state, self.time, result.substeps)
+        self._outputs.min_gap = min(result.min_gap, self._outputs.gap)
         return self._outputs
 
     def outputs(self) -> Outputs:
@@ -425,6 +485,8 @@ class FemModel:
         s = self._state
         scalars = {"torque_work": s.torque_work, "substeps": float(self._outputs.substeps)}
         arrays = {"u": s.u.copy(), "v": s.v.copy(), "lam": s.lam.copy()}
+        if s.a is not None:
+            arrays["a"] = s.a.copy()
         if self._jac is not None:
             jp = self._jac
             scalars.update(jac_dt=jp.dt, jac_torque=jp.torque)
@@ -435,7 +497,10 @@ class FemModel:
         if state.fidelity != "fem" or state.arrays.get("u", np.empty(0)).shape != (self._nV,):
             raise ValueError(f"state of fidelity {state.fidelity!r} does not fit this fem model ({self._nV} displacement dofs)")
         arr, sc = state.arrays, state.scalars
-        self._state = FemState(arr["u"].copy(), arr["v"].copy(), arr["lam"].copy(), sc["torque_work"])
+        if self.newmark != ("a" in arr):
+            raise ValueError("state of another time integration scheme (solver.scheme) than this fem model's")
+        self._state = FemState(arr["u"].copy(), arr["v"].copy(), arr["lam"].copy(), sc["torque_work"],
+                               arr["a"].copy() if self.newmark else None)
         if "jac_w" in arr:
             self._jac = JacobianPoint(arr["jac_u0"].copy(), arr["jac_v0"].copy(), arr["jac_w"].copy(),
                                       sc["jac_dt"], sc["jac_torque"], arr["jac_active"].astype(int))
@@ -481,7 +546,7 @@ class FemModel:
         total = kinetic + potential + strain + c_energy
         return Outputs(time=t, theta=theta, omega=omega, gap=gap, contact_force=c_force, kinetic=kinetic,
                        potential=potential, strain=strain, contact=c_energy, total=total,
-                       torque_work=s.torque_work, von_mises_max=vm, substeps=substeps)
+                       torque_work=s.torque_work, von_mises_max=vm, substeps=substeps, min_gap=gap)
 
 
 def contact_time_scale(gaps: np.ndarray, weights: np.ndarray, m_eff: float, rate: float, k_line: float) -> tuple[float, float]:

@@ -266,6 +266,7 @@ class RigidModel:
         self.time = float(t_end)
         self._outputs = self._compute_outputs(self._x, self.time, result.substeps)
         self.last_min_gap = min(result.min_gap, self._outputs.gap)
+        self._outputs.min_gap = self.last_min_gap
         return self._outputs
 
     def outputs(self) -> Outputs:
@@ -303,4 +304,4 @@ class RigidModel:
         return Outputs(time=t, theta=math.remainder(q, 2.0 * math.pi), omega=w, gap=gap,
                        contact_force=math.hypot(pen.fx, pen.fy), kinetic=kinetic, potential=potential,
                        strain=0.0, contact=pen.energy, total=total, torque_work=work,
-                       von_mises_max=0.0, substeps=substeps)
+                       von_mises_max=0.0, substeps=substeps, min_gap=gap)
