@@ -1,0 +1,79 @@
+"""Run a schedule of communication steps through the FMU in a fresh interpreter (fmpy FMU2Slave).
+
+Shared by the robustness tests and benchmarks/robustness.py. One instance per
+run, freed with fmi2FreeInstance only and the interpreter left with os._exit
+(pythonfmu's binary must not be unloaded in a process that lives on).
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+HERE = str(Path(__file__).resolve().parent)
+COLUMNS = ("time", "theta", "omega", "gap", "contact_force", "energy.kinetic", "energy.potential",
+           "energy.strain", "energy.contact", "energy.total", "energy.torque_work", "gap_min", "solver.substeps",
+           "status")
+FIDELITY_NUMBER = {"auto": 1, "rigid": 2, "reduced": 3, "fem": 4}
+WALL_NUMBER = {"rigid": 1, "deformable": 2, "none": 3}
+STIFF: dict = {}
+COMPLIANT = {"pendulum.E": 1e6, "pendulum.nu": 0.45, "pendulum.rho": 1000.0, "contact.stiffness": 5e9,
+             "model.order": 3}
+
+
+def run_schedule(fmu: str, params: dict, schedule: list, repeat: int = 1) -> list[np.ndarray]:
+    """Outputs after every doStep (first row: after initialisation), once per repeat, in a new process.
+
+    schedule: [(h, torque), ...]. The status column is 0 (OK) or 2 (discard: the run stops there)."""
+    payload = json.dumps({"fmu": str(fmu), "params": params, "schedule": schedule, "repeat": repeat})
+    script = (f"import sys; sys.path.insert(0, {HERE!r}); import fmu_runner; fmu_runner._child()")
+    run = subprocess.run([sys.executable, "-c", script], input=payload, capture_output=True, text=True)
+    if run.returncode != 0:
+        raise RuntimeError(run.stdout[-3000:] + run.stderr[-3000:])
+    return [np.array(rows, dtype=float) for rows in json.loads(run.stdout.strip().splitlines()[-1])]
+
+
+def _child() -> None:
+    import os
+
+    from fmpy.fmi1 import FMICallException
+    from test_fmu import Instance
+
+    job = json.loads(sys.stdin.read())
+    params = {k: (FIDELITY_NUMBER[v] if k == "model.fidelity" else WALL_NUMBER[v] if k == "wall.kind" else v)
+              for k, v in job["params"].items()}
+    runs = []
+    for r in range(job["repeat"]):
+        inst = Instance(job["fmu"], f"run{r}", **params)
+        reals = [inst.var[c].valueReference for c in COLUMNS[1:-2]]
+        sub = inst.var["solver.substeps"].valueReference
+
+        def row(t, status):
+            return [t, *inst.fmu.getReal(reals), float(inst.fmu.getInteger([sub])[0]), status]
+
+        rows = [row(0.0, 0)]
+        t = 0.0
+        for h, torque in job["schedule"]:
+            inst.set("torque", torque)
+            try:
+                inst.fmu.doStep(t, h)
+            except FMICallException as exc:
+                if "status 2" not in str(exc):
+                    raise
+                rows.append(row(t, 2))
+                break
+            t += h
+            rows.append(row(t, 0))
+        runs.append(rows)
+        inst.fmu.terminate()
+        inst.fmu.fmi2FreeInstance(inst.fmu.component)
+    print(json.dumps(runs))
+    sys.stdout.flush()
+    os._exit(0)
+
+
+def col(run: np.ndarray, name: str) -> np.ndarray:
+    return run[:, COLUMNS.index(name)]
