@@ -167,7 +167,7 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
     "solver.max_step": (1e-7, 0.1, True, True),
     "solver.tolerance": (1e-8, 0.1, True, True),
 }
-_INT_RANGES = {"model.order": (2, 5), "model.threads": (1, 64), "model.modes": (1, 40),  # order 1: see docs/fem.md
+_INT_RANGES = {"model.order": (2, 5), "model.threads": (1, 64), "model.modes": (1, 200),  # order 1: see docs/fem.md
                "solver.max_substeps": (0, 10**9)}
 _CHOICES = {"wall.kind": WALL_KINDS, "model.fidelity": FIDELITIES, "solver.scheme": SCHEMES}
 

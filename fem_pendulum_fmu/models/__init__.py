@@ -4,16 +4,14 @@ from __future__ import annotations
 from ..scene import Scene, validate
 from .base import ModelState, Outputs, PendulumModel, StepFailed
 
-AVAILABLE = ("rigid", "fem")
+AVAILABLE = ("rigid", "reduced", "fem")
 
 
 def resolve_fidelity(scene: Scene) -> str:
-    """The fidelity that runs for a scene. "auto" runs the full FE model until the
-    selection rule of issue 4 (rigid / reduced / fem by scene) is in place."""
-    fidelity = scene.model.fidelity
-    if fidelity == "auto":
-        return "fem"
-    return fidelity
+    """The fidelity that runs for a scene: the parameter, or for "auto" the rule of selection.py."""
+    from .selection import resolve
+
+    return resolve(scene)
 
 
 def create(scene: Scene) -> PendulumModel:
@@ -21,12 +19,17 @@ def create(scene: Scene) -> PendulumModel:
     validate(scene)
     fidelity = resolve_fidelity(scene)
     if fidelity not in AVAILABLE:
-        raise ValueError(f"parameter model.fidelity = {fidelity!r} is not available yet: choose one of {', '.join(AVAILABLE)}")
+        raise ValueError(f"parameter model.fidelity = {fidelity!r} is not available: choose one of auto, {', '.join(AVAILABLE)}")
     if fidelity == "rigid":
         if scene.wall.kind == "deformable":
             raise ValueError("parameter wall.kind = 'deformable' is not available with model.fidelity = 'rigid': choose rigid or none, or model.fidelity = 'fem'")
         from .rigid import RigidModel
         return RigidModel(scene)
+    if fidelity == "reduced":
+        if scene.wall.kind == "deformable":
+            raise ValueError("parameter wall.kind = 'deformable' is not available with model.fidelity = 'reduced': choose rigid or none, or model.fidelity = 'fem'")
+        from .reduced import ReducedModel
+        return ReducedModel(scene)
     from .fem import FemModel
     return FemModel(scene)
 

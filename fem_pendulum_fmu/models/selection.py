@@ -1,0 +1,91 @@
+"""The rule behind model.fidelity = "auto": the cheapest model whose physics the scene needs.
+
+An impact puts energy into elastic vibration when the contact is short
+against the pendulum's first elastic period; a contact that lasts several
+periods loads the body quasi-statically and a rigid body loses nothing. So the
+rule compares the contact duration t_c (the rigid model's estimate for the
+swing's impact speed, the same estimate the step control uses) with the first
+elastic frequency f1 of the hinged pendulum (modes.py):
+
+* a deformable wall: fem (only the FE model meshes the wall);
+* f1 t_c >= RIGID_CONTACT_PERIODS, or no contact and f1 >= RIGID_SWING_RATIO
+  times the pendulum's own frequency: rigid;
+* impacts, and the model.modes eigenmodes of the reduced basis reach EXCITED_BAND / t_c
+  (the band a pulse of that length excites), or no contact: reduced;
+* otherwise: fem.
+
+docs/reduced.md gives the measurements behind the thresholds.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+from ..scene import Scene
+
+LOG = logging.getLogger("fem_pendulum_fmu")
+
+RIGID_CONTACT_PERIODS = 2.0  # f1 * t_c at or above this: the impact is quasi-static for the body
+EXCITED_BAND = 2.0  # an impact of duration t_c excites modes up to EXCITED_BAND / t_c: reduced needs them all
+RIGID_SWING_RATIO = 100.0  # no contact: f1 / f_pendulum at or above this (static deflection < 1e-4 of the swing)
+
+
+@dataclass(frozen=True)
+class Choice:
+    fidelity: str
+    reason: str
+
+
+def choose(scene: Scene) -> Choice:
+    """The fidelity "auto" runs for `scene`, and why."""
+    if scene.wall.kind == "deformable":
+        return Choice("fem", "wall.kind = deformable needs the FE model")
+    from ..modes import first_elastic_frequency
+    from .rigid import RigidModel
+
+    f1 = first_elastic_frequency(scene)
+    rigid = RigidModel(scene.with_values({"model.fidelity": "rigid"}))
+    if rigid.contact_on:
+        omega_hit = impact_speed(rigid)
+        if omega_hit > 0.0:
+            # the rigid model's contact estimate at the moment of touching, moving into the wall
+            t_c, _ = rigid.contact_scales((0.0, -omega_hit, 0.0))
+            ratio = f1 * t_c
+            if ratio >= RIGID_CONTACT_PERIODS:
+                return Choice("rigid", f"contact {t_c * 1e3:.3g} ms lasts {ratio:.3g} first elastic periods "
+                                       f"(f1 = {f1:.4g} Hz, rigid from {RIGID_CONTACT_PERIODS:g})")
+            from ..modes import modal_basis
+
+            f_top = math.sqrt(modal_basis(scene).eigen_omega2[-1]) / (2.0 * math.pi)
+            f_band = EXCITED_BAND / t_c
+            why = (f"contact {t_c * 1e3:.3g} ms lasts only {ratio:.3g} first elastic periods (f1 = {f1:.4g} Hz): "
+                   f"impacts excite vibration up to about {f_band:.4g} Hz; the {scene.model.modes} modes of "
+                   f"model.modes reach {f_top:.4g} Hz")
+            return Choice("reduced" if f_top >= f_band else "fem", why)
+    f_swing = math.sqrt(max(gravity_moment(rigid), 1e-300) / rigid.inertia) / (2.0 * math.pi)
+    ratio = f1 / f_swing
+    if ratio >= RIGID_SWING_RATIO:
+        return Choice("rigid", f"no impact; f1 = {f1:.4g} Hz is {ratio:.3g} times the swing frequency")
+    return Choice("reduced", f"no impact, but f1 = {f1:.4g} Hz is only {ratio:.3g} times the swing frequency")
+
+
+def gravity_moment(rigid) -> float:
+    """m g d: the largest gravity moment about the pivot."""
+    return rigid.total_mass * rigid.scene.gravity * rigid.com_depth
+
+
+def impact_speed(rigid) -> float:
+    """Angular speed at theta = 0 (where the head touches the wall) of the released swing; 0 if it
+    never gets there. Energy balance of the rigid body without torque."""
+    energy = 0.5 * rigid.inertia * rigid.scene.omega0 ** 2 + gravity_moment(rigid) * (1.0 - math.cos(rigid.scene.theta0))
+    return math.sqrt(2.0 * energy / rigid.inertia) if energy > 0.0 else 0.0
+
+
+def resolve(scene: Scene) -> str:
+    """The fidelity that runs: the parameter, or the rule's choice for "auto" (logged)."""
+    if scene.model.fidelity != "auto":
+        return scene.model.fidelity
+    choice = choose(scene)
+    LOG.info("model.fidelity = auto picked %s: %s", choice.fidelity, choice.reason)
+    return choice.fidelity
