@@ -6,6 +6,10 @@
     python benchmarks/robustness.py memory
         peak resident memory of building the FE model and taking one step, against the estimate
         scene.mesh_memory_estimate that refuses meshes too fine for the machine
+    python benchmarks/robustness.py findings
+        the measurements behind the findings of docs/robustness.md: Gauss points of the discrete
+        gradient (steel after violent impacts, rubber after a pulse, cost on the default run),
+        penetration against the square wave's period, step-sequence sensitivity after a second impact
 """
 from __future__ import annotations
 
@@ -69,12 +73,74 @@ print(json.dumps([h, p, m.X.ndof, estimated_unknowns(scene), (r1 - r0) / 1024, m
         print(f"| {h_:g} | {p_} | {ndof} | {est:.0f} | {rss:.0f} | {est_mb:.0f} | {1024 * rss / ndof:.1f} | {secs:.1f} |")
 
 
+FINDINGS = r"""
+import json, math, sys, time
+import numpy as np
+what = sys.argv[1]
+if what.startswith("gauss"):
+    import fem_pendulum_fmu.material as material
+    original = material.averaged_pk2_stress
+    n = int(sys.argv[2])
+    material.averaged_pk2_stress = lambda C0, C1, lam, mu, points: original(C0, C1, lam, mu, n)
+from fem_pendulum_fmu.models import create
+from fem_pendulum_fmu.scene import compliant, stiff
+
+def worst(model, schedule):
+    e0, w, t0 = model.outputs().total, 0.0, time.perf_counter()
+    for t, torque in schedule:
+        out = model.advance(t, torque)
+        w = max(w, abs(out.total - e0 - out.torque_work))
+    return w, out, time.perf_counter() - t0
+
+if what == "gauss-violent":   # steel, +-50 N.m square wave (0.15 s each way), 0.18 s: the back-face impact
+    m = create(stiff(**{"model.mesh_size": 0.06, "theta0": 0.0}))
+    sched = [(k * 1e-3, 50.0 if ((k - 1) // 150) % 2 == 0 else -50.0) for k in range(1, 181)]
+    w, out, secs = worst(m, sched)
+    print(json.dumps({"case": what, "points": n, "worst_J": w, "work_J": out.torque_work, "s": secs}))
+elif what == "gauss-rubber":  # rubber, 2 N.m for 1 ms, then 39 ms free
+    m = create(compliant(**{"model.mesh_size": 0.06, "theta0": 0.0}))
+    w, out, secs = worst(m, [(k * 1e-3, 2.0 if k == 1 else 0.0) for k in range(1, 41)])
+    print(json.dumps({"case": what, "points": n, "worst_J": w, "work_J": out.torque_work, "s": secs}))
+elif what == "gauss-default":  # the default scene released at 20 degrees, 0.5 s in 1 ms steps
+    m = create(stiff())
+    w, out, secs = worst(m, [(k * 1e-3, 0.0) for k in range(1, 501)])
+    print(json.dumps({"case": what, "points": n, "worst_J": w, "s": secs}))
+elif what == "penetration":  # rigid, +-50 N.m square waves, 1 s
+    for half in (0.05, 0.1, 0.15):
+        m = create(stiff(**{"model.fidelity": "rigid", "theta0": 0.0}))
+        pen, wmax = 0.0, 0.0
+        for k in range(1, 1001):
+            out = m.advance(k * 1e-3, 50.0 if ((k - 1) * 1e-3 + 1e-9) // half % 2 == 0 else -50.0)
+            pen, wmax = max(pen, -out.min_gap), max(wmax, abs(out.omega))
+        print(json.dumps({"case": what, "half_period_s": half, "max_penetration_mm": 1e3 * pen, "max_omega": wmax,
+                          "head_speed_m_s": wmax * 0.24}))
+elif what == "sequence":  # fem, default scene, 1 s: 1 ms against 0.1 s communication steps, and against max_step 0.5 ms
+    runs = {}
+    for label, h, ms in (("1ms", 1e-3, 2e-3), ("0.1s", 0.1, 2e-3), ("1ms-max_step-0.5ms", 1e-3, 5e-4)):
+        m = create(stiff(**{"model.mesh_size": 0.06, "solver.max_step": ms}))
+        runs[label] = {round(k * h, 6): m.advance(k * h, 0.0).theta for k in range(1, int(round(1.0 / h)) + 1)}
+    for label in ("0.1s", "1ms-max_step-0.5ms"):
+        d = {t: abs(runs[label][t] - runs["1ms"][t]) for t in runs["0.1s"]}
+        print(json.dumps({"case": what, "against_1ms": label, "max_dtheta_before_0.7s": max(v for t, v in d.items() if t <= 0.7),
+                          "max_dtheta_after": max(v for t, v in d.items() if t > 0.7)}))
+"""
+
+
+def findings() -> None:
+    jobs = [("gauss-violent", n) for n in (1, 2, 3)] + [("gauss-rubber", n) for n in (2, 3)] + \
+           [("gauss-default", n) for n in (1, 2, 1, 2)] + [("penetration", None), ("sequence", None)]
+    for what, n in jobs:
+        args = [sys.executable, "-c", FINDINGS, what] + ([str(n)] if n else [])
+        out = subprocess.run(args, capture_output=True, text=True, check=True, cwd=ROOT)
+        print(out.stdout.strip(), flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("what", choices=["hard-cases", "memory"])
+    parser.add_argument("what", choices=["hard-cases", "memory", "findings"])
     parser.add_argument("-k", help="pytest -k expression (hard-cases)")
     args = parser.parse_args()
-    hard_cases(args.k) if args.what == "hard-cases" else memory()
+    {"hard-cases": lambda: hard_cases(args.k), "memory": memory, "findings": findings}[args.what]()
 
 
 if __name__ == "__main__":
