@@ -72,45 +72,75 @@ class LinearStrain:
 
 class NeoHookeanStrain:
     """The FE model's Neo-Hookean energy of the modal displacement field w = phi q, integrated on
-    the FE mesh (rotation-invariant, so the floating frame stays exact at large strains)."""
+    the FE mesh (rotation-invariant, so the floating frame stays exact at large strains).
+
+    The modes' displacement gradients are sampled once at the mesh's quadrature points; an
+    evaluation is then F = I + G q and the energy law at those points, in numpy: the reduced
+    model's hot loop never calls into the FE assembly."""
 
     def __init__(self, scene: Scene, phi: np.ndarray, omega2: np.ndarray):
         import ngsolve as ngs
 
-        from .. import material
         from ..modes import fe_space
 
         mesh, V = fe_space(scene)
-        lam, mu = scene.pendulum.lame
-        u = V.TrialFunction()
-        density = scene.pendulum.thickness * material.energy_density(
-            material.right_cauchy_green(material.deformation_gradient(u)), lam, mu)
-        self._form = ngs.BilinearForm(V, symmetric=False)  # COO of a symmetric form holds one triangle only
-        self._form += ngs.Variation(density.Compile() * ngs.dx)
-        self._gf = ngs.GridFunction(V)
-        self._res = self._gf.vec.CreateVector()
-        self._phi = phi
+        rule = ngs.IntegrationRule(ngs.TRIG, 2 * scene.model.order)
+        points = mesh.MapToAllElements(rule, ngs.VOL)
+        jac_det = ngs.Det(ngs.specialcf.JacobianMatrix(2))(points).ravel()
+        self._weights = scene.pendulum.thickness * np.abs(jac_det) * np.tile([ip.weight for ip in rule], mesh.ne)
+        gf = ngs.GridFunction(V)
+        grad = ngs.Grad(gf)
+        G = np.empty((len(self._weights), 4, phi.shape[1]))  # rows d wx/dx, d wx/dy, d wy/dx, d wy/dy
+        for j in range(phi.shape[1]):
+            gf.vec.FV().NumPy()[:] = phi[:, j]
+            G[..., j] = np.asarray(grad(points)).reshape(-1, 4)
+        self._G = G.reshape(-1, phi.shape[1])
+        self._lam, self._mu = scene.pendulum.lame
         self.linear_hessian = np.diag(omega2)  # the tangent at q = 0
 
-    def _load(self, q: np.ndarray):
-        self._gf.vec.FV().NumPy()[:] = self._phi @ q
-        return self._gf.vec
+    def _kinematics(self, q: np.ndarray):
+        F = (self._G @ q).reshape(-1, 2, 2)
+        F[:, 0, 0] += 1.0
+        F[:, 1, 1] += 1.0
+        J = F[:, 0, 0] * F[:, 1, 1] - F[:, 0, 1] * F[:, 1, 0]
+        return F, J
 
     def energy(self, q: np.ndarray) -> float:
-        return self._form.Energy(self._load(q))
+        F, J = self._kinematics(q)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            log_j = np.log(J)  # nan for an inverted point: the step fails and is retried smaller
+        density = 0.5 * self._mu * (np.einsum("pij,pij->p", F, F) - 2.0 - 2.0 * log_j) + 0.5 * self._lam * log_j * log_j
+        return float(self._weights @ density)
 
     def gradient(self, q: np.ndarray) -> np.ndarray:
-        self._form.Apply(self._load(q), self._res)
-        return self._phi.T @ self._res.FV().NumPy()
+        F, J = self._kinematics(q)
+        # F^-T in 2D: [[F11, -F10], [-F01, F00]] / J
+        inv_t = np.empty_like(F)
+        inv_t[:, 0, 0], inv_t[:, 0, 1] = F[:, 1, 1], -F[:, 1, 0]
+        inv_t[:, 1, 0], inv_t[:, 1, 1] = -F[:, 0, 1], F[:, 0, 0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            inv_t /= J[:, None, None]
+            log_j = np.log(J)
+        P = self._mu * (F - inv_t) + (self._lam * log_j)[:, None, None] * inv_t  # first Piola-Kirchhoff
+        return ((self._weights[:, None, None] * P).reshape(-1)) @ self._G
 
     def hessian(self, q: np.ndarray) -> np.ndarray:
-        self._form.AssembleLinearization(self._load(q))
-        rows, cols, vals = self._form.mat.COO()
-        import scipy.sparse as sp
-
-        n = self._phi.shape[0]
-        K = sp.csr_matrix((np.array(vals), (np.array(rows), np.array(cols))), shape=(n, n))
-        return self._phi.T @ (K @ self._phi)
+        """Exact tangent: sum_p w_p G_p^T A_p G_p with the Neo-Hookean elasticity tensor
+        A_iJkL = mu d_ik d_JL + (mu - lam ln J) Fi_Li Fi_Jk + lam Fi_Ji Fi_Lk (Fi = F^-1)."""
+        F, J = self._kinematics(q)
+        inv = np.empty_like(F)
+        inv[:, 0, 0], inv[:, 0, 1] = F[:, 1, 1], -F[:, 0, 1]
+        inv[:, 1, 0], inv[:, 1, 1] = -F[:, 1, 0], F[:, 0, 0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            inv /= J[:, None, None]
+            log_j = np.log(J)
+        n = len(J)
+        A = (np.einsum("pli,pjk->pijkl", inv, inv).reshape(n, 4, 4) * (self._mu - self._lam * log_j)[:, None, None]
+             + self._lam * np.einsum("pji,plk->pijkl", inv, inv).reshape(n, 4, 4))
+        A += self._mu * np.eye(4)
+        G = self._G.reshape(n, 4, -1)
+        AG = A @ G
+        return np.einsum("pam,pan->mn", G * self._weights[:, None, None], AG, optimize=True)
 
 
 class ReducedModel:
@@ -269,7 +299,7 @@ class ReducedModel:
         scale = abs(0.5 * p0 @ v0) + abs(V0) + 1e-12
         g0, _ = self.potential_gradient(z0)
         z1 = z0 + dt * v0 + (0.5 * dt * dt) * (A0 @ (Q - g0))  # predictor (no gyroscopic terms)
-        K_strain = self._strain.linear_hessian
+        K_strain = self._strain.hessian(z0[1:])
         for it in range(NEWTON_MAX_IT):
             dz = z1 - z0
             zm = 0.5 * (z0 + z1)

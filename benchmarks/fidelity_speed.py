@@ -1,0 +1,119 @@
+"""Speed and accuracy of every fidelity through the FMU, as a user runs it (issue 4).
+
+    python benchmarks/fidelity_speed.py [--fmu dist/FemPendulum.fmu] [--t-end 2] [--repeat 3]
+
+Each run is a fresh process that drives the FMU with fmpy's FMU2Slave in 1 ms
+communication steps (torque 0, released at 20 degrees) and times the doStep
+loop (set torque, doStep, get every output) after initialisation. Scenes: the
+stiff (steel) and compliant (rubber) presets. For each scene the fem run is the
+reference the other fidelities are compared with (max |theta - theta_fem|,
+max |gap - gap_fem|); the energy error is max |E_total - E_0 - W_torque| over
+the swing energy E_0 - E_bottom. Wall times: median of --repeat runs (fem: one
+run when --repeat-fem is 1), with min-max spread.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+CHILD = r"""
+import json, os, sys, time
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+fmu, preset, fidelity, t_end = sys.argv[1], sys.argv[2], int(sys.argv[3]), float(sys.argv[4])
+md = read_model_description(fmu)
+vr = {v.name: v.valueReference for v in md.modelVariables}
+names = ["theta", "gap", "energy.total", "energy.torque_work", "solver.substeps"]
+s = FMU2Slave(guid=md.guid, unzipDirectory=extract(fmu), modelIdentifier=md.coSimulation.modelIdentifier, instanceName="b")
+s.instantiate(); s.setupExperiment(startTime=0.0); s.enterInitializationMode()
+s.setInteger([vr["model.fidelity"]], [fidelity])
+if preset == "compliant":
+    s.setReal([vr["pendulum.E"], vr["pendulum.nu"], vr["pendulum.rho"], vr["contact.stiffness"]], [1e6, 0.45, 1000.0, 5e9])
+    s.setInteger([vr["model.order"]], [3])
+s.exitInitializationMode()
+reals = [vr[n] for n in names[:4]]
+n = int(round(t_end / 1e-3))
+rows = np.empty((n + 1, 5))
+rows[0, :4] = s.getReal(reals); rows[0, 4] = 0
+t0 = time.perf_counter()
+for k in range(n):
+    s.setReal([vr["torque"]], [0.0])
+    s.doStep(k * 1e-3, 1e-3)
+    rows[k + 1, :4] = s.getReal(reals)
+    rows[k + 1, 4] = s.getInteger([vr["solver.substeps"]])[0]
+wall = time.perf_counter() - t0
+s.terminate(); s.fmi2FreeInstance(s.component)
+np.save(sys.argv[5], rows)
+print(json.dumps({"wall": wall}))
+sys.stdout.flush()
+os._exit(0)
+"""
+
+FIDELITY_NUMBER = {"rigid": 2, "reduced": 3, "fem": 4}
+SWING_DROP = 1.0 - np.cos(np.radians(20.0))
+
+
+def run(fmu: Path, preset: str, fidelity: str, t_end: float, tmp: Path) -> tuple[float, np.ndarray]:
+    out = tmp / f"{preset}_{fidelity}.npy"
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    proc = subprocess.run([sys.executable, "-c", CHILD, str(fmu), preset, str(FIDELITY_NUMBER[fidelity]), str(t_end), str(out)],
+                          capture_output=True, text=True, env=env, check=True)
+    return json.loads(proc.stdout.strip().splitlines()[-1])["wall"], np.load(out)
+
+
+def swing_energy(rows: np.ndarray) -> float:
+    """E_0 minus the energy at the bottom: potential drop of the release angle, from the run's own
+    first total energy and the gravity law E_pot = -m g d cos(theta)."""
+    e0, th0 = rows[0, 2], rows[0, 0]
+    # E_0 = -mgd cos(th0) (at rest); the drop to the bottom is mgd (1 - cos th0)
+    mgd = -e0 / np.cos(th0)
+    return mgd * (1.0 - np.cos(th0))
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--fmu", type=Path, default=Path("dist") / "FemPendulum.fmu")
+    p.add_argument("--t-end", type=float, default=2.0)
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--repeat-fem", type=int, default=1)
+    p.add_argument("--scenes", default="stiff,compliant")
+    args = p.parse_args(argv)
+    if not args.fmu.exists():
+        subprocess.run([sys.executable, "build_fmu.py"], check=True)
+    print(f"| scene | fidelity | wall s per simulated s (median, spread) | internal steps per s | "
+          f"max dtheta vs fem (deg) | max dgap vs fem (mm) | energy error / swing energy |")
+    print("|---|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for preset in args.scenes.split(","):
+            results = {}
+            for fidelity in ("fem", "reduced", "rigid"):
+                repeat = args.repeat_fem if fidelity == "fem" else args.repeat
+                walls = []
+                for _ in range(repeat):
+                    wall, rows = run(args.fmu, preset, fidelity, args.t_end, Path(tmp))
+                    walls.append(wall / args.t_end)
+                results[fidelity] = (sorted(walls), rows)
+            ref = results["fem"][1]
+            for fidelity, (walls, rows) in results.items():
+                swing = swing_energy(rows)
+                energy = np.max(np.abs(rows[:, 2] - rows[0, 2] - rows[:, 3])) / swing
+                dth = np.degrees(np.max(np.abs(rows[:, 0] - ref[:, 0])))
+                dgap = 1e3 * np.max(np.abs(rows[:, 1] - ref[:, 1]))
+                median = walls[len(walls) // 2]
+                spread = f"{walls[0]:.3g}-{walls[-1]:.3g}" if len(walls) > 1 else "1 run"
+                steps = rows[1:, 4].sum() / args.t_end
+                print(f"| {preset} | {fidelity} | {median:.3g} ({spread}) | {steps:.0f} | "
+                      f"{'reference' if fidelity == 'fem' else f'{dth:.3g}'} | "
+                      f"{'reference' if fidelity == 'fem' else f'{dgap:.3g}'} | {energy:.2g} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
