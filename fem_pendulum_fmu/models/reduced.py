@@ -172,7 +172,7 @@ class ReducedModel:
         self._phi_peak = np.max(np.linalg.norm(b.head_phi, axis=1), axis=0)  # (m,) largest head displacement per mode
         self._head_centre = (0.0, -scene.geometry.head_centre_depth)
         self._head_radius = float(np.max(np.linalg.norm(b.head_X - self._head_centre, axis=1)))
-        self.control = StepControl(max_step=scene.solver.max_step, tolerance=scene.solver.tolerance)
+        self.control = StepControl.for_scene(scene)
         self._memo: dict[bytes, tuple] = {}
         self._stress = None
         self._strain = (LinearStrain(b.omega2) if uses_linear_strain(scene)
