@@ -394,6 +394,7 @@ class ReducedModel:
         self.time = float(t_end)
         self._outputs = self._compute_outputs(self._x, self.time, result.substeps)
         self.last_min_gap = min(result.min_gap, self._outputs.gap)
+        self._outputs.min_gap = self.last_min_gap
         return self._outputs
 
     def outputs(self) -> Outputs:
@@ -418,6 +419,7 @@ class ReducedModel:
         self.time = float(state.time)
         self._outputs = self._compute_outputs(x, self.time, int(state.scalars.get("substeps", 0)))
         self.last_min_gap = float(state.scalars.get("last_min_gap", self._outputs.gap))
+        self._outputs.min_gap = self.last_min_gap
 
     # ----------------------------------------------------------------- outputs
     def _compute_outputs(self, x: tuple, t: float, substeps: int) -> Outputs:
@@ -439,7 +441,7 @@ class ReducedModel:
         return Outputs(time=t, theta=math.remainder(float(z[0]), 2.0 * math.pi), omega=float(p[0] / M[0, 0]),
                        gap=gap, contact_force=float(np.hypot(*force)), kinetic=kinetic, potential=potential,
                        strain=strain, contact=c_energy, total=kinetic + potential + strain + c_energy,
-                       torque_work=work, von_mises_max=vm, substeps=substeps)
+                       torque_work=work, von_mises_max=vm, substeps=substeps, min_gap=gap)
 
     def von_mises_max(self, z: np.ndarray) -> float:
         """Largest von Mises stress of the modal displacement field (frame-invariant), on the FE mesh."""
