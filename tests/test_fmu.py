@@ -374,3 +374,21 @@ def test_example_torque_profiles_step_with_two_rows():
     assert np.all(np.diff(pulse["time"]) >= 0)
     steps = np.flatnonzero(np.diff(pulse["time"]) == 0)
     assert len(steps) == 2 and all(pulse["torque"][i] != pulse["torque"][i + 1] for i in steps)
+
+
+@isolated
+def test_auto_fidelity_is_logged_and_runs_the_model_it_names(fmus, tmp_path):
+    """model.fidelity = auto (1) on the steel scene runs the reduced model, says so in the FMI
+    log, and gives the outputs of model.fidelity = reduced (3) bit for bit."""
+    fmu, _ = fmus
+    auto = Instance(fmu, "auto", **{"model.fidelity": 1})
+    assert any("auto picked reduced" in m for m in auto.messages), auto.messages
+    reduced = Instance(fmu, "reduced", **{"model.fidelity": 3})
+    names = ("theta", "omega", "gap", "energy.total", "energy.strain")
+    for _ in range(30):
+        auto.step(1e-2, -1.0)
+        reduced.step(1e-2, -1.0)
+        assert auto.get(*names) == reduced.get(*names)
+    assert auto.get("energy.strain")[0] > 0.0  # elastic modes are live
+    auto.close()
+    reduced.close()
