@@ -17,6 +17,9 @@ from fem_pendulum_fmu.models import create, reduced, selection
 from fem_pendulum_fmu.scene import compliant, stiff
 
 DT = 1e-3
+# Newton stops when a step's energy imbalance is below ENERGY_TOL of the energies it moves (|E| < 2 J
+# here): at most ~1000 steps * 1e-10 * 2 J = 2e-7 J, against a swing energy of 0.117 J (steel).
+ENERGY_BOUND = 1000 * reduced.ENERGY_TOL * 2.0
 
 
 def trace(m, t_end, torque=0.0):
@@ -67,7 +70,7 @@ def test_steel_reduced_follows_fem_through_impact_and_rebound(steel):
     assert np.max(np.abs(red[:, 2] - fem[:, 2])) < 0.02  # omega: the same angular-momentum definition
     # the rigid model misses the ~6 % of the swing energy the impact puts into vibration
     assert np.max(np.abs(np.degrees(rigid[:, 0] - fem[:, 0]))) > 0.1
-    assert np.max(np.abs(red[:, 3])) < 1e-9
+    assert np.max(np.abs(red[:, 3])) < ENERGY_BOUND
 
 
 def test_rubber_reduced_tracks_fem_through_the_first_impact_far_better_than_rigid():
@@ -81,14 +84,14 @@ def test_rubber_reduced_tracks_fem_through_the_first_impact_far_better_than_rigi
     err_rigid = np.max(np.abs(np.degrees(rigid[:, 0] - fem[:, 0])))
     assert err_red < 0.7 and err_rigid > 4.0 * err_red
     assert np.max(np.abs(red[:, 1] - fem[:, 1])) < 4e-3
-    assert np.max(np.abs(red[:, 3])) < 1e-9
+    assert np.max(np.abs(red[:, 3])) < ENERGY_BOUND
 
 
 def test_rubber_torque_pulse_keeps_the_energy_balance():
     pulse = lambda t: 2.0 if t < 0.05 else 0.0
     out = trace(create(compliant(model__fidelity="reduced")), 0.3, pulse)
     assert np.all(np.isfinite(out))
-    assert np.max(np.abs(out[:, 3])) < 1e-9
+    assert np.max(np.abs(out[:, 3])) < ENERGY_BOUND
 
 
 @pytest.mark.parametrize("scene, picked", [
