@@ -23,9 +23,10 @@ import numpy as np
 
 from .scene import Scene
 
-BASIS_VERSION = 6  # bump when the reduction changes: part of the cache key
+BASIS_VERSION = 7  # bump when the reduction changes: part of the cache key
 HEAD_RULE_ORDER = 120  # Gauss points per head boundary element: 61, i.e. ~0.5 mm apart on the default mesh
-CONTACT_PATCHES = 5  # static correction vectors for the head's contact zone (contact_corrections)
+CONTACT_PATCHES = 5  # static correction vectors for the head's contact zone (load_corrections)
+LOAD_CORRECTIONS = CONTACT_PATCHES + 1  # and one for the hinge torque
 PATCH_WIDTH = 0.01  # m
 EIGEN_SHIFT = -1.0  # rad^2/s^2; shift-invert below the zero-frequency rotation
 
@@ -35,7 +36,7 @@ class ModalBasis:
     """Mass-normalised elastic modes of the hinged pendulum, reduced to small arrays (SI units,
     all mass integrals include density and thickness)."""
 
-    omega2: np.ndarray  # (m + CONTACT_PATCHES,) squared angular frequencies of the basis vectors
+    omega2: np.ndarray  # (m + LOAD_CORRECTIONS,) squared angular frequencies of the basis vectors
     eigen_omega2: np.ndarray  # (m,) squared angular eigenfrequencies of the eigenmodes among them
     inertia0: float  # int rho h |X|^2: moment of inertia about the pivot
     mass: float
@@ -148,15 +149,18 @@ def _scipy(matrix):
     return sp.csr_matrix((np.array(vals), (np.array(rows), np.array(cols))), shape=(n, n))
 
 
-def contact_corrections(scene: Scene, V, K, C, l_rot: np.ndarray) -> np.ndarray:
-    """Static deflections of the hinged pendulum under pressure patches on the head's wall side.
+def load_corrections(scene: Scene, V, K, C, l_rot: np.ndarray, l_torque: np.ndarray) -> np.ndarray:
+    """Static deflections of the hinged pendulum under the loads it sees: the hinge torque and
+    pressure patches on the head's wall side.
 
     A penalty wall is far stiffer than a soft head, so an impact deforms the head locally and
     quasi-statically; eigenmodes need very many members to represent that (and converge
     erratically), static correction vectors represent it directly (modal truncation
     augmentation, as in Craig-Bampton). Patches: Gaussians of width PATCH_WIDTH centred on the
     head's outer circle at CONTACT_PATCHES positions around its point facing the wall. Each
-    deflection has zero mean hinge displacement and no best-fit rotation (l_rot . s = 0)."""
+    deflection has zero mean hinge displacement and no best-fit rotation (l_rot . s = 0): the
+    moment of a load is carried by the rotation's inertia (inertia relief). The torque's
+    deflection is the rod bending under a pivot torque, large for rubber (20 % strain at 0.3 N.m)."""
     import scipy.sparse as sp
     import scipy.sparse.linalg as sla
     from ngsolve import InnerProduct, LinearForm, ds, exp, specialcf, x, y
@@ -171,7 +175,7 @@ def contact_corrections(scene: Scene, V, K, C, l_rot: np.ndarray) -> np.ndarray:
     def static(load: np.ndarray) -> np.ndarray:
         return solver.solve(np.concatenate([load, np.zeros(B.shape[0])]))[:n]
 
-    columns = []
+    columns = [static(l_torque)]
     half = (CONTACT_PATCHES - 1) / 2.0
     for k in range(CONTACT_PATCHES):
         angle = np.pi + (k - half) * PATCH_WIDTH / geo.head_radius
@@ -228,17 +232,17 @@ def compute_modes(scene: Scene) -> ModalBasis:
     pos = CF((x, y))
     l_pos = functional(rho * h * InnerProduct(pos, v))
     l_rot = functional(rho * h * (x * v[1] - y * v[0]))
-    statics = contact_corrections(scene, V, K, C, l_rot)
-    phi, omega2 = rayleigh_ritz(np.column_stack([eigen, statics]), K, M)
-    l_x, l_y = functional(rho * h * v[0]), functional(rho * h * v[1])
-    # NGSolve matrices are indexed [test, trial]: cross[k, l] = int rho h phi_l x phi_k, so
-    # gyro_ij = int rho h phi_i x phi_j = (cross phi_i) . phi_j
-    cross = _scipy(BilinearForm(rho * h * (u[0] * v[1] - u[1] * v[0]) * dx).Assemble().mat)
     N = specialcf.normal(2)
     weight = x / scene.geometry.rod_half_width
     arm = x * N[1] - y * N[0]
     torque_scale = 1.0 / Integrate(weight * arm, mesh, BND, definedon=mesh.Boundaries("hinge"))
     l_torque = functional(torque_scale * weight * InnerProduct(N, v), ds("hinge"))
+    statics = load_corrections(scene, V, K, C, l_rot, l_torque)
+    phi, omega2 = rayleigh_ritz(np.column_stack([eigen, statics]), K, M)
+    l_x, l_y = functional(rho * h * v[0]), functional(rho * h * v[1])
+    # NGSolve matrices are indexed [test, trial]: cross[k, l] = int rho h phi_l x phi_k, so
+    # gyro_ij = int rho h phi_i x phi_j = (cross phi_i) . phi_j
+    cross = _scipy(BilinearForm(rho * h * (u[0] * v[1] - u[1] * v[0]) * dx).Assemble().mat)
 
     rule = IntegrationRule(SEGM, HEAD_RULE_ORDER)
     points = mesh.MapToAllElements(rule, mesh.Boundaries("head"))
