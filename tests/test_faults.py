@@ -194,7 +194,9 @@ def test_random_torques_and_steps_never_crash_the_rigid_model(schedule, theta0, 
 
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(schedule=st.lists(st.tuples(STEP, st.floats(min_value=-5.0, max_value=5.0)), min_size=1, max_size=6),
-       theta0=st.floats(min_value=-0.05, max_value=0.3))
+       theta0=st.floats(min_value=0.0, max_value=0.3))
 def test_random_torques_and_steps_never_crash_the_fe_model(schedule, theta0):
+    """Released outside the wall: theta0 < 0 starts the head inside the block, and releasing that
+    penalty energy (18 kJ at 7.5 mm) is an explosion, not an operating point (docs/robustness.md)."""
     model = models.create(stiff(**{**COARSE, "theta0": theta0}))
     _energy_check(model, schedule, 1e-5, 1e-9)  # floor: the Newton tolerance
