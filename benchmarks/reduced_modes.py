@@ -42,7 +42,7 @@ def main() -> None:
     times = [t for t in (0.25, 0.3, 0.4, 0.5, 0.7) if t < args.t_end] + [args.t_end]
     t = np.arange(1, len(ref) + 1) * DT
     print(f"FE reference: {wall / args.t_end:.3g} s per simulated s")
-    print("| modes (+ contact corrections) | " + " | ".join(f"to {x:g} s: dtheta deg / dgap mm" for x in times)
+    print("| modes (+ load corrections) | " + " | ".join(f"to {x:g} s: dtheta deg / dgap mm" for x in times)
           + " | steps per s | wall s per simulated s |")
     print("|---" * (len(times) + 3) + "|")
     for m in (int(v) for v in args.modes.split(",")):
