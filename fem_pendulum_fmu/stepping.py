@@ -30,7 +30,7 @@ import math
 from dataclasses import dataclass
 from typing import Generic, Protocol, TypeVar
 
-from .models.base import StepFailed
+from .models.base import Outputs, StepFailed, check_advance_args
 
 X = TypeVar("X")
 
@@ -152,3 +152,23 @@ def _step_locating_onset(model, x, dt, torque, gap0, pen_tol, dt_contact, contro
         return x_lo, lo, fails
     dt = max(min(hi, dt_contact), control.min_step)
     return model.step(x, dt, torque), dt, fails
+
+
+class SteppedModel:
+    """`advance` and `outputs` of the protocol for a model whose whole state is `self._x`,
+    stepped by this module (rigid and reduced; the FE model adds threads and its Jacobian).
+
+    Needs `self._x`, `self.time`, `self.control` and `self._compute_outputs(x, t, substeps)`."""
+
+    def advance(self, t_end: float, torque: float) -> Outputs:
+        check_advance_args(self.time, t_end, torque)
+        result = advance(self, self._x, self.time, float(t_end), float(torque), self.control)
+        self._x = result.state
+        self.time = float(t_end)
+        self._outputs = self._compute_outputs(self._x, self.time, result.substeps)
+        self.last_min_gap = min(result.min_gap, self._outputs.gap)
+        self._outputs.min_gap = self.last_min_gap
+        return self._outputs
+
+    def outputs(self) -> Outputs:
+        return self._outputs

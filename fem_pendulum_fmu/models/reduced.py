@@ -31,8 +31,8 @@ import numpy as np
 
 from ..modes import ModalBasis, modal_basis
 from ..scene import Scene, validate
-from ..stepping import StepControl, advance as advance_steps
-from .base import ModelState, Outputs, check_advance_args
+from ..stepping import StepControl, SteppedModel
+from .base import ModelState, Outputs
 from .fem import contact_time_scale
 
 NEWTON_MAX_IT = 40
@@ -113,15 +113,20 @@ class NeoHookeanStrain:
         density = 0.5 * self._mu * (np.einsum("pij,pij->p", F, F) - 2.0 - 2.0 * log_j) + 0.5 * self._lam * log_j * log_j
         return float(self._weights @ density)
 
+    @staticmethod
+    def _inverse_and_log(F: np.ndarray, J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """F^-1 and ln J at every point (nan where an element is inverted)."""
+        inv = np.empty_like(F)
+        inv[:, 0, 0], inv[:, 0, 1] = F[:, 1, 1], -F[:, 0, 1]
+        inv[:, 1, 0], inv[:, 1, 1] = -F[:, 1, 0], F[:, 0, 0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            inv /= J[:, None, None]
+            return inv, np.log(J)
+
     def gradient(self, q: np.ndarray) -> np.ndarray:
         F, J = self._kinematics(q)
-        # F^-T in 2D: [[F11, -F10], [-F01, F00]] / J
-        inv_t = np.empty_like(F)
-        inv_t[:, 0, 0], inv_t[:, 0, 1] = F[:, 1, 1], -F[:, 1, 0]
-        inv_t[:, 1, 0], inv_t[:, 1, 1] = -F[:, 0, 1], F[:, 0, 0]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            inv_t /= J[:, None, None]
-            log_j = np.log(J)
+        inv, log_j = self._inverse_and_log(F, J)
+        inv_t = inv.transpose(0, 2, 1)
         P = self._mu * (F - inv_t) + (self._lam * log_j)[:, None, None] * inv_t  # first Piola-Kirchhoff
         return ((self._weights[:, None, None] * P).reshape(-1)) @ self._G
 
@@ -129,12 +134,7 @@ class NeoHookeanStrain:
         """Exact tangent: sum_p w_p G_p^T A_p G_p with the Neo-Hookean elasticity tensor
         A_iJkL = mu d_ik d_JL + (mu - lam ln J) Fi_Li Fi_Jk + lam Fi_Ji Fi_Lk (Fi = F^-1)."""
         F, J = self._kinematics(q)
-        inv = np.empty_like(F)
-        inv[:, 0, 0], inv[:, 0, 1] = F[:, 1, 1], -F[:, 0, 1]
-        inv[:, 1, 0], inv[:, 1, 1] = -F[:, 1, 0], F[:, 0, 0]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            inv /= J[:, None, None]
-            log_j = np.log(J)
+        inv, log_j = self._inverse_and_log(F, J)
         n = len(J)
         A = (np.einsum("pli,pjk->pijkl", inv, inv).reshape(n, 4, 4) * (self._mu - self._lam * log_j)[:, None, None]
              + self._lam * np.einsum("pji,plk->pijkl", inv, inv).reshape(n, 4, 4))
@@ -144,7 +144,7 @@ class NeoHookeanStrain:
         return np.einsum("pam,pan->mn", G * self._weights[:, None, None], AG, optimize=True)
 
 
-class ReducedModel:
+class ReducedModel(SteppedModel):
     """The reduced fidelity (fidelity "reduced").
 
     State: z = (theta, q), the momenta p and the torque work. wall.kind
@@ -391,19 +391,6 @@ class ReducedModel:
         return contact_time_scale(dist[near], self.basis.head_weights[near], m_eff, rate, self._hk)
 
     # ---------------------------------------------------------------- protocol
-    def advance(self, t_end: float, torque: float) -> Outputs:
-        check_advance_args(self.time, t_end, torque)
-        result = advance_steps(self, self._x, self.time, float(t_end), float(torque), self.control)
-        self._x = result.state
-        self.time = float(t_end)
-        self._outputs = self._compute_outputs(self._x, self.time, result.substeps)
-        self.last_min_gap = min(result.min_gap, self._outputs.gap)
-        self._outputs.min_gap = self.last_min_gap
-        return self._outputs
-
-    def outputs(self) -> Outputs:
-        return self._outputs
-
     def get_state(self) -> ModelState:
         z, p, work = self._x
         return ModelState(self.fidelity, self.time,

@@ -23,8 +23,8 @@ from functools import lru_cache
 from .. import rigid_contact
 from ..geometry import make_mesh
 from ..scene import PendulumGeometry, Scene, validate
-from ..stepping import StepControl, advance as advance_steps
-from .base import ModelState, Outputs, check_advance_args
+from ..stepping import StepControl, SteppedModel
+from .base import ModelState, Outputs
 
 # Mesh for the mass properties: converged to ~1e-10 relative (0.005/order 5 agrees to 1e-10).
 MASS_MESH_SIZE = 0.004
@@ -58,7 +58,7 @@ def geometry_moments(geo: PendulumGeometry) -> tuple[float, float, float]:
     return tuple(load_or_build_json("moments", key, integrate))
 
 
-class RigidModel:
+class RigidModel(SteppedModel):
     """The rigid fidelity (fidelity "rigid").
 
     State: theta, omega and the torque work. Outputs: strain energy and
@@ -259,19 +259,6 @@ class RigidModel:
         return math.pi * math.sqrt(m_eff / k_sec), delta
 
     # ------------------------------------------------------------- protocol
-    def advance(self, t_end: float, torque: float) -> Outputs:
-        check_advance_args(self.time, t_end, torque)
-        result = advance_steps(self, self._x, self.time, float(t_end), float(torque), self.control)
-        self._x = result.state
-        self.time = float(t_end)
-        self._outputs = self._compute_outputs(self._x, self.time, result.substeps)
-        self.last_min_gap = min(result.min_gap, self._outputs.gap)
-        self._outputs.min_gap = self.last_min_gap
-        return self._outputs
-
-    def outputs(self) -> Outputs:
-        return self._outputs
-
     def get_state(self) -> ModelState:
         q, w, work = self._x
         return ModelState(self.fidelity, self.time, {"theta": q, "omega": w, "torque_work": work,
