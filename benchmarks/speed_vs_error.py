@@ -46,6 +46,7 @@ RUNS = Path(os.environ.get("SPEED_VS_ERROR_RUNS", Path(tempfile.gettempdir()) / 
 DOC = ROOT / "docs" / "speed_vs_error.md"
 COMM_STEP = 1e-3
 SWING_DEG = 20.0  # swing energy: the 20-degree swing every scene is about
+DIVERGED = 10.0  # a run whose energy error exceeds this many swing energies is stopped as diverged
 RECORDED = ("theta", "omega", "gap", "gap_min", "contact_force", "energy.total", "energy.torque_work")
 
 # ------------------------------------------------------------------ scenes and settings
@@ -82,6 +83,11 @@ class Setting:
 
 SEED_FIXED = "seed Newmark, fixed dt"
 SEED_GAP = "seed Newmark, gap rule"
+# The convergence check of the references, as stated in docs/speed_vs_error.md: max |theta_L1 - theta_L2|
+# before the second impact (the measured values: steel 3.2e-4, rubber 1.05e-3, deformable wall 3.2e-5
+# over its whole 0.5 s; controller 6.7e-3 because L1's order-3 head starts 6 um inside the wall it
+# touches at theta0 = 0 and is kicked off it, while the default mesh agrees with L2 to 1.6e-4).
+REFERENCE_AGREEMENT = {"steel": 5e-4, "rubber": 1.6e-3, "controller": 1e-2, "deformable_wall": 1e-4}
 # the tight FE discretisations behind the references; the last one is the reference
 REFERENCE_LEVELS = (
     ("L1", {"model.mesh_size": 0.03, "model.order": 3, "solver.tolerance": 1e-4, "solver.max_step": 5e-4}),
@@ -245,6 +251,11 @@ def _child(spec: dict) -> None:
         t = (k + 1) * h
         rows.append(pendulum.get(RECORDED))
         substeps += pendulum.substeps()
+        e = rows[-1][RECORDED.index("energy.total")] - rows[0][RECORDED.index("energy.total")] \
+            - rows[-1][RECORDED.index("energy.torque_work")]
+        if abs(e) > spec.get("abort_energy", math.inf):
+            failed = f"diverged: energy error {e:.3g} J, over {DIVERGED:g} swing energies, at t = {t:.3f} s"
+            break
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
     data = np.array(rows)
     np.savez(spec["out"], time=np.arange(len(rows)) * h, data=data, wall=wall, cpu=cpu, init=init,
@@ -270,6 +281,7 @@ def run_once(case: SceneCase, values: dict, fmus: tuple[Path, Path], t_end: floa
     with tempfile.TemporaryDirectory(prefix="speed_vs_error_") as tmp:
         out = Path(tmp) / "run.npz"
         spec = {"fmu": str(fmus[0]), "pid": str(fmus[1]), "values": fmi_values(case, values), "loop": case.loop,
+                "abort_energy": DIVERGED * swing_energy(case),
                 "t_end": case.t_end if t_end is None else t_end, "out": str(out)}
         proc = subprocess.run([sys.executable, __file__, "_run", json.dumps(spec)], capture_output=True, text=True)
         if proc.returncode != 0 or not out.exists():
@@ -293,10 +305,11 @@ def swing_energy(case: SceneCase) -> float:
     return mgd * (1.0 - math.cos(math.radians(SWING_DEG)))
 
 
-def rebounds(omega: np.ndarray, gap: np.ndarray, band: float = 1e-3) -> np.ndarray:
-    """Sample intervals in which omega turns from towards the wall to away from it with the gap
-    under `band` at one end (as controller_loop.wall_impacts): one per rebound."""
-    return np.nonzero((omega[:-1] < 0) & (omega[1:] > 0) & ((gap[:-1] < band) | (gap[1:] < band)))[0]
+def rebounds(omega: np.ndarray, gap: np.ndarray, band: float = 1e-3, speed: float = 0.02) -> np.ndarray:
+    """Sample intervals in which omega turns from towards the wall (faster than `speed` rad/s, so
+    that a pendulum resting on the wall does not count) to away from it with the gap under `band`
+    at one end (as controller_loop.wall_impacts): one per rebound."""
+    return np.nonzero((omega[:-1] < -speed) & (omega[1:] > 0) & ((gap[:-1] < band) | (gap[1:] < band)))[0]
 
 
 def early_window(ref: dict) -> int:
@@ -528,22 +541,29 @@ def sweep(args, fmus) -> None:
               f"{'FAILED ' + row['failed'] if row['failed'] else ''}", flush=True)
 
 
-# accuracy a fidelity's default settings must reach on the scenes it is meant for (quick mode, tests):
-# the issue's targets where they are met, else the bound docs/speed_vs_error.md states and explains.
+# Accuracy a fidelity's default settings must reach on the scenes it is meant for (quick mode, tests),
+# in max |theta - theta_ref| before the reference's second impact (early_window: later, the phase of
+# the steel plate's 1 kHz vibration decides, which not even the references agree on): the issue's
+# target where it is met, else the bound docs/speed_vs_error.md states (measured value + 50 %).
 THETA_TARGET = 1e-3  # rad
 ENERGY_TARGET = 1e-3  # of the swing energy
-THETA_BOUNDS = {}  # (fidelity, scene) -> documented bound where the target is not met
+THETA_BOUNDS = {("fem", "rubber"): 1.7e-3,  # measured 1.11e-3 (order 3 on 0.03 m; L1 -> L2 differ by about as much)
+                ("rigid", "controller"): 3.5e-3}  # measured 2.28e-3: the plate's elastic response, not steps
+QUICK_MARGIN = 0.05  # s simulated past the end of the early window
 
 
 def quick_rows(fmus, scenes: list[str] | None = None) -> list[dict]:
-    """Each available fidelity's default settings, once, on the scenes it is meant for."""
+    """Each available fidelity's default settings, once, on the scenes it is meant for, up to
+    QUICK_MARGIN past the reference's second impact (that is all the quick check scores)."""
     rows = []
     for case in SCENES:
         if scenes and case.name not in scenes:
             continue
+        ref = load_reference(case.name)
+        t_end = min(case.t_end, round(float(ref["time"][early_window(ref) - 1]) + QUICK_MARGIN, 3))
         for fidelity in available_fidelities():
             if meant_for(fidelity, case):
-                row = measure(case, settings(fidelity, case)[0], fmus, repeat=1)
+                row = measure(case, settings(fidelity, case)[0], fmus, repeat=1, t_end=t_end)
                 row["theta_bound"] = THETA_BOUNDS.get((fidelity, case.name), THETA_TARGET)
                 rows.append(row)
     return rows
@@ -560,8 +580,9 @@ def check_quick(rows: list[dict]) -> list[str]:
         elif m is None:
             problems.append(f"{where}: no stored reference")
         else:
-            if not m["theta_max"] <= r["theta_bound"]:
-                problems.append(f"{where}: max theta error {m['theta_max']:.3g} rad > {r['theta_bound']:.3g}")
+            if not m["theta_max_early"] <= r["theta_bound"]:
+                problems.append(f"{where}: max theta error before the second impact {m['theta_max_early']:.3g} rad "
+                                f"> {r['theta_bound']:.3g}")
             if not m["energy"] <= ENERGY_TARGET:
                 problems.append(f"{where}: energy error {m['energy']:.3g} > {ENERGY_TARGET:g}")
     return problems
@@ -604,7 +625,8 @@ def main(argv: list[str] | None = None) -> None:
             rows = quick_rows(fmus, args.scenes)
             for r in rows:
                 m = r["metrics"] or {}
-                print(f"{r['scene']:16s} {r['curve']:8s} max theta error {m.get('theta_max', math.nan):.2e} rad "
+                print(f"{r['scene']:16s} {r['curve']:8s} max theta error to {m.get('early_end', math.nan):.3f} s "
+                      f"{m.get('theta_max_early', math.nan):.2e} rad "
                       f"(bound {r['theta_bound']:.0e}), energy error {m.get('energy', math.nan):.1e}, "
                       f"wall/sim {r['wall_per_sim'][0]:.2f} s")
             problems = check_quick(rows)

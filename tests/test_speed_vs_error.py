@@ -1,0 +1,41 @@
+"""The work-precision benchmark's quick mode: every fidelity's default settings, through the FMU,
+against the stored references (benchmarks/references/), on the scenes it is meant for.
+
+It asserts accuracy only (the bounds are in benchmarks/speed_vs_error.py and
+docs/speed_vs_error.md), never time: wall times depend on the machine.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import speed_vs_error as bench  # noqa: E402
+
+
+def test_stored_references_are_small_and_converged():
+    total = 0
+    for case in bench.SCENES:
+        path = bench.REFERENCES / f"{case.name}.npz"
+        total += path.stat().st_size
+        ref = bench.load_reference(case.name)
+        assert ref["time"][-1] == np.float64(round(case.t_end / bench.COMM_STEP) * bench.COMM_STEP)
+        assert len(ref["time"]) == round(case.t_end / bench.COMM_STEP) + 1
+        finest = ref["meta"]["convergence"][-1]  # the last refinement changes the answer less than the bound
+        assert finest["fine"] == ref["meta"]["level"]
+        # before the second impact (a check stored without that window compared every sample: stricter)
+        assert finest.get("theta_max_early", finest["theta_max"]) <= bench.REFERENCE_AGREEMENT[case.name], case.name
+        assert bench.energy_error(ref, ref["meta"]["swing_energy"]) < 1e-4
+    assert total < 1_000_000
+
+
+def test_quick_mode_defaults_are_within_their_bounds(fmus):
+    rows = bench.quick_rows(fmus)
+    assert {r["curve"] for r in rows} == set(bench.available_fidelities())
+    assert {r["scene"] for r in rows if r["curve"] == "fem"} == {c.name for c in bench.SCENES}
+    problems = bench.check_quick(rows)
+    assert not problems, problems
