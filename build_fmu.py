@@ -22,7 +22,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent
 PACKAGE = ROOT / "fem_pendulum_fmu"
-REQUIREMENTS = ("ngsolve", "numpy", "pythonfmu", "fmpy")
+REQUIREMENTS = ("ngsolve", "numpy", "scipy", "pythonfmu", "fmpy")  # what the FMU imports at run time
 
 
 def requirements_txt() -> str:
