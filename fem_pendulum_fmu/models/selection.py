@@ -10,9 +10,11 @@ elastic frequency f1 of the hinged pendulum (modes.py):
 * a deformable wall: fem (only the FE model meshes the wall);
 * f1 t_c >= RIGID_CONTACT_PERIODS, or no contact and f1 >= RIGID_SWING_RATIO
   times the pendulum's own frequency: rigid;
-* impacts, and the model.modes eigenmodes of the reduced basis reach EXCITED_BAND / t_c
-  (the band a pulse of that length excites), or no contact: reduced;
-* otherwise: fem.
+* a stiff body (E / rho > 1e5 m^2/s^2) whose impacts excite only modes the reduced basis
+  holds (its model.modes eigenmodes reach EXCITED_BAND / t_c, the band a pulse of that
+  length excites), or that meets no wall: reduced;
+* otherwise (a soft body, whose rod a pivot torque bends far beyond a linear basis, or an
+  impact too short for the basis): fem.
 
 docs/reduced.md gives the measurements behind the thresholds.
 """
@@ -62,12 +64,24 @@ def choose(scene: Scene) -> Choice:
             why = (f"contact {t_c * 1e3:.3g} ms lasts only {ratio:.3g} first elastic periods (f1 = {f1:.4g} Hz): "
                    f"impacts excite vibration up to about {f_band:.4g} Hz; the {scene.model.modes} modes of "
                    f"model.modes reach {f_top:.4g} Hz")
-            return Choice("reduced" if f_top >= f_band else "fem", why)
+            if f_top < f_band:
+                return Choice("fem", why)
+            return soft_or_reduced(scene, why)
     f_swing = math.sqrt(max(gravity_moment(rigid), 1e-300) / rigid.inertia) / (2.0 * math.pi)
     ratio = f1 / f_swing
     if ratio >= RIGID_SWING_RATIO:
         return Choice("rigid", f"no impact; f1 = {f1:.4g} Hz is {ratio:.3g} times the swing frequency")
-    return Choice("reduced", f"no impact, but f1 = {f1:.4g} Hz is only {ratio:.3g} times the swing frequency")
+    return soft_or_reduced(scene, f"no impact, but f1 = {f1:.4g} Hz is only {ratio:.3g} times the swing frequency")
+
+
+def soft_or_reduced(scene: Scene, why: str) -> Choice:
+    """reduced, unless the body is soft: a soft rod bends far beyond what a linear basis carries
+    under a modest pivot torque (rubber: 2.4 rad of bending at 0.3 N.m, docs/reduced.md)."""
+    from .reduced import uses_linear_strain
+
+    if uses_linear_strain(scene):
+        return Choice("reduced", why)
+    return Choice("fem", why + "; the body is soft (E / rho <= 1e5 m^2/s^2): large deflections need fem")
 
 
 def gravity_moment(rigid) -> float:
