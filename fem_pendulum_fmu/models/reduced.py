@@ -4,21 +4,22 @@ Floating frame of reference: a material point X of the pendulum is at
 
     x = R(theta) (X + sum_j phi_j(X) q_j)
 
-with the mass-normalised elastic modes phi_j of the hinged pendulum
-(modes.py). The modes are mass-orthogonal to the rigid rotation, so theta is
+with a mass-normalised basis phi_j of the hinged pendulum's elastic motion
+(modes.py: eigenmodes and static corrections for the loads). The modes are mass-orthogonal to the rigid rotation, so theta is
 the FE model's best-fit angle and p_theta its angular momentum about the pivot.
 Energies, with z = (theta, q) and momenta p = M(q) dz/dt:
 
 * kinetic  1/2 p^T M(q)^-1 p,  M(q) = [[I0 + 2 a.q + q.q, (G^T q)^T], [G^T q, Id]]
   (G: gyroscopic coupling of the modes);
-* strain   1/2 sum omega_j^2 q_j^2: linear elasticity in the rotating frame, so
-  any rotation is exact and only large strains are approximate (docs/reduced.md);
+* strain   in the rotating frame, so any rotation is exact: the FE model's
+  Neo-Hookean energy of the field phi q for soft bodies, its quadratic part
+  1/2 sum omega_j^2 q_j^2 for stiff ones (uses_linear_strain);
 * gravity  g (sin theta S_x(q) + cos theta S_y(q)), S the first mass moment;
 * contact  the penalty law of contact.py, summed over points on the head
   boundary in the deformed configuration.
 
 Time integration is a discrete gradient scheme for H(z, p): kinetic energy is
-split exactly into its p and q differences, and gravity + contact get
+split exactly into its p and q differences, and gravity + contact + strain get
 Gonzalez's correction in the mass metric. Over every step H changes by exactly
 the torque's work tau (d theta + beta . dq), so impacts neither gain nor lose
 energy. Step sizes come from stepping.py, as for the other fidelities.
