@@ -1,10 +1,12 @@
 """Elastic modes of the hinged pendulum, and the small tensors the reduced fidelity needs.
 
 The pendulum's displacement in a frame rotating with it is written as
-w(X) = sum_j phi_j(X) q_j: the lowest eigenmodes of the linearised FE model
-(the same mesh, order, material and hinge condition as models/fem.py, i.e.
-zero mean displacement of the hinge edge). The rigid rotation about the pivot
-is the zero-frequency mode and is left out; every elastic mode is mass
+w(X) = sum_j phi_j(X) q_j. The basis: the lowest eigenmodes of the linearised
+FE model (the same mesh, order, material and hinge condition as models/fem.py,
+i.e. zero mean displacement of the hinge edge) and static corrections for the
+loads the pendulum sees (contact patches on the head, the hinge torque), made
+mass-orthonormal together by Rayleigh-Ritz. The rigid rotation about the pivot
+is the zero-frequency mode and is left out; every basis vector is mass
 orthogonal to it, so the frame's angle is exactly the FE model's best-fit
 angle (the Tisserand frame).
 
@@ -216,7 +218,7 @@ def mass_orthonormal(vectors: np.ndarray, M, drop: float = 1e-10) -> np.ndarray:
 
 
 def compute_modes(scene: Scene) -> ModalBasis:
-    """Solve K phi = omega^2 M phi with the hinge condition and reduce to a ModalBasis."""
+    """Eigenmodes and load corrections of the hinged pendulum, reduced to a ModalBasis."""
     from ngsolve import (BND, CF, BilinearForm, GridFunction, InnerProduct, Integrate, IntegrationRule,
                          LinearForm, SEGM, ds, dx, specialcf, x, y)
 
