@@ -105,6 +105,31 @@ elif what == "gauss-default":  # the default scene released at 20 degrees, 0.5 s
     m = create(stiff())
     w, out, secs = worst(m, [(k * 1e-3, 0.0) for k in range(1, 501)])
     print(json.dumps({"case": what, "points": n, "worst_J": w, "s": secs}))
+elif what == "quadrature":  # rubber (order 3), 2 N.m held in 0.1 ms steps: the energy guard, and the rules used before
+    import fem_pendulum_fmu.models.fem as fem
+    from fem_pendulum_fmu.models import StepFailed
+    from ngsolve import BND
+    integrate, variant = fem.Integrate, sys.argv[2]
+    if variant != "guard":
+        fem.STEP_ENERGY_TOLERANCE = math.inf
+
+    def patched(cf, mesh, *args, **kwargs):
+        if variant == "no-guard-old-torque-rule" and args and args[0] is BND and kwargs.get("order") == 8:
+            kwargs.pop("order", None)  # the torque work's integral (order 2 order + 2 = 8): the default rule, 5
+        if variant == "no-guard-old-strain-rule" and not args and kwargs.get("order") == 6:
+            kwargs["order"] = 8  # the strain energy with 2 order + 2 instead of the forms' 2 order
+        return integrate(cf, mesh, *args, **kwargs)
+    fem.Integrate = patched
+    m = create(compliant(**{"model.mesh_size": 0.06, "theta0": 0.0}))
+    e0 = m.outputs().total
+    try:
+        for j in range(1, 31):
+            out = m.advance(j * 1e-4, 2.0)
+            if j in (20, 23, 30):
+                print(json.dumps({"case": what, "variant": variant, "t_ms": j / 10, "work_J": out.torque_work,
+                                  "energy_error_J": out.total - e0 - out.torque_work, "min_det_F": m.min_det_F()}))
+    except StepFailed as exc:
+        print(json.dumps({"case": what, "variant": variant, "discarded_at_ms": 1e3 * m.time, "reason": str(exc)}))
 elif what == "penetration":  # rigid, +-50 N.m square waves, 1 s
     for half in (0.05, 0.1, 0.15):
         m = create(stiff(**{"model.fidelity": "rigid", "theta0": 0.0}))
@@ -128,9 +153,10 @@ elif what == "sequence":  # fem, default scene, 1 s: 1 ms against 0.1 s communic
 
 def findings() -> None:
     jobs = [("gauss-violent", n) for n in (1, 2, 3)] + [("gauss-rubber", n) for n in (2, 3)] + \
-           [("gauss-default", n) for n in (1, 2, 1, 2)] + [("penetration", None), ("sequence", None)]
+           [("gauss-default", n) for n in (1, 2, 1, 2)] + [("penetration", None), ("sequence", None)] + \
+           [("quadrature", v) for v in ("guard", "no-guard", "no-guard-old-torque-rule", "no-guard-old-strain-rule")]
     for what, n in jobs:
-        args = [sys.executable, "-c", FINDINGS, what] + ([str(n)] if n else [])
+        args = [sys.executable, "-c", FINDINGS, what] + ([str(n)] if n is not None else [])
         out = subprocess.run(args, capture_output=True, text=True, check=True, cwd=ROOT)
         print(out.stdout.strip(), flush=True)
 
