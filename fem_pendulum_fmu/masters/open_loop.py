@@ -24,15 +24,30 @@ def read_torque_csv(path: Path) -> np.ndarray:
 
 
 def parse_start_values(items: list[str]) -> dict:
+    """NAME=VALUE pairs to start values; an enumeration takes its item name (model.fidelity=auto)
+    or number, a Boolean true/false."""
+    from .. import interface
+
+    ifc = interface.load()
     values = {}
     for item in items:
         name, _, text = item.partition("=")
         if not _:
             raise SystemExit(f"--set {item!r}: expected NAME=VALUE")
         try:
-            values[name] = float(text) if any(c in text for c in ".eE") else int(text)
-        except ValueError:
-            values[name] = text
+            var = ifc.by_name(name)
+        except KeyError:
+            raise SystemExit(f"--set {item!r}: {name} is not a variable of the FMU (see the README's table)") from None
+        if var.items and text in var.items:
+            values[name] = var.items.index(text) + 1
+        elif var.type == "Boolean" and text.lower() in ("true", "false"):
+            values[name] = text.lower() == "true"
+        else:
+            try:
+                values[name] = float(text) if any(c in text for c in ".eE") else int(text)
+            except ValueError:
+                allowed = f"one of {', '.join(var.items)} or their numbers" if var.items else f"a {var.type} number"
+                raise SystemExit(f"--set {item!r}: {text!r} is not allowed for {name}: use {allowed}") from None
     return values
 
 
