@@ -176,6 +176,7 @@ class ReducedModel(SteppedModel):
         self._head_radius = float(np.max(np.linalg.norm(b.head_X - self._head_centre, axis=1)))
         self.control = StepControl.for_scene(scene)
         self._memo: dict[bytes, tuple] = {}
+        self._closest_memo = None
         self._stress = None
         self._strain = (LinearStrain(b.omega2) if uses_linear_strain(scene)
                         else NeoHookeanStrain(scene, b.phi, b.omega2))
@@ -352,6 +353,8 @@ class ReducedModel(SteppedModel):
 
     def _closest(self, x: tuple) -> tuple:
         """(world points, signed distances, index of the closest, its normal rate)."""
+        if self._closest_memo is not None and self._closest_memo[0] is x:
+            return self._closest_memo[1]
         from ..contact import box_signed_distance
 
         z = x[0]
@@ -362,22 +365,26 @@ class ReducedModel(SteppedModel):
         s, c = math.sin(z[0]), math.cos(z[0])
         elastic = self.basis.head_phi[i] @ v[1:]
         vel = v[0] * (_J @ world[i]) + np.array([c * elastic[0] - s * elastic[1], s * elastic[0] + c * elastic[1]])
-        return world, dist, i, float(nx[i] * vel[0] + ny[i] * vel[1]), (float(nx[i]), float(ny[i]))
+        result = (world, dist, i, float(nx[i] * vel[0] + ny[i] * vel[1]), (float(nx[i]), float(ny[i])))
+        self._closest_memo = (x, result)  # the stepper asks for the gap, then the scales, of one state
+        return result
+
+    def _circle_gap(self, x: tuple) -> tuple[float, float]:
+        """Gap of the head's bounding circle to the block and its rate: a lower bound of the gap."""
+        from ..contact import box_signed_distance
+
+        cx, cy, radius = self._head_circle(x[0])
+        d, nx, ny = box_signed_distance(np.array([cx]), np.array([cy]), self.block)
+        return float(d[0]) - radius, self._velocity(x)[0] * float(-cy * nx[0] + cx * ny[0])
 
     def gap_and_rate(self, x: tuple) -> tuple[float, float]:
         """Gap and rate of the closest head point; far from the block (beyond FAR_GAP), the
         bounding circle's gap and rate instead: a lower bound, which is all the stepper needs there."""
         if not self.contact_on:
             return math.inf, 0.0
-        z = x[0]
-        cx, cy, radius = self._head_circle(z)
-        from ..contact import box_signed_distance
-
-        d, nx, ny = box_signed_distance(np.array([cx]), np.array([cy]), self.block)
-        circle_gap = float(d[0]) - radius
+        circle_gap, circle_rate = self._circle_gap(x)
         if circle_gap > FAR_GAP:
-            omega = self._velocity(x)[0]
-            return circle_gap, omega * float(-cy * nx[0] + cx * ny[0])
+            return circle_gap, circle_rate
         _, dist, i, rate, _ = self._closest(x)
         return float(dist[i]), rate
 
@@ -385,6 +392,9 @@ class ReducedModel(SteppedModel):
         """Contact duration and depth from the rigid-body effective mass at the closest point (as fem.py)."""
         if not self.contact_on:
             return math.inf, 0.0
+        circle_gap, circle_rate = self._circle_gap(x)
+        if circle_gap > FAR_GAP and circle_gap + 2.0 * self.control.max_step * min(circle_rate, 0.0) > 0.0:
+            return math.inf, 0.0  # no contact within the next two largest steps
         world, dist, i, rate, (nx, ny) = self._closest(x)
         lever = abs(world[i, 0] * ny - world[i, 1] * nx)
         m_eff = self.inertia0 / max(lever, 1e-3 * self.scene.geometry.head_centre_depth) ** 2
