@@ -212,7 +212,7 @@ def _on_arc(arc: Arc, angle: float) -> bool:
     return _offset(arc, angle) <= arc.length
 
 
-def _point_box(px: float, py: float, block: WallBlock) -> tuple[float, float, float]:
+def point_box(px: float, py: float, block: WallBlock) -> tuple[float, float, float]:
     """Distance from a point outside (or on) the block to it, and the nearest block point."""
     qx = min(max(px, block.x_min), block.x_max)
     qy = min(max(py, block.y_min), block.y_max)
@@ -253,7 +253,7 @@ def outside_distance(arc: Arc, block: WallBlock) -> tuple[float, float, float, f
             consider(abs(rho - R), px, py, qx, qy)
     for ang in (arc.start, arc.start + arc.length):
         px, py = cx + R * math.cos(ang), cy + R * math.sin(ang)
-        dist, qx, qy = _point_box(px, py, block)
+        dist, qx, qy = point_box(px, py, block)
         consider(dist, px, py, qx, qy)
     dist, px, py, qx, qy = best
     if dist > 0.0:
@@ -273,7 +273,7 @@ def signed_gap(arc: Arc, block: WallBlock, pieces: list[Piece] | None = None) ->
     cx, cy, R = arc.cx, arc.cy, arc.radius
     # fast path (free flight): the centre is outside, more than R from the block, and the
     # circle point facing the block's nearest point lies on the arc; then the gap is exact.
-    dist_c, qx, qy = _point_box(cx, cy, block)
+    dist_c, qx, qy = point_box(cx, cy, block)
     if dist_c > R:
         rx, ry = qx - cx, qy - cy
         if _on_arc(arc, math.atan2(ry, rx)):

@@ -177,6 +177,7 @@ class ReducedModel(SteppedModel):
         self.control = StepControl.for_scene(scene)
         self._memo: dict[bytes, tuple] = {}
         self._closest_memo = None
+        self._identity = np.eye(self.n)
         self._stress = None
         self._strain = (LinearStrain(b.omega2) if uses_linear_strain(scene)
                         else NeoHookeanStrain(scene, b.phi, b.omega2))
@@ -191,7 +192,7 @@ class ReducedModel(SteppedModel):
     # ---------------------------------------------------------------- energies
     def mass_matrix(self, z: np.ndarray) -> np.ndarray:
         b, q = self.basis, z[1:]
-        M = np.eye(self.n)
+        M = self._identity.copy()
         M[0, 0] = b.inertia0 + 2.0 * b.a @ q + q @ q
         coupling = q @ b.gyro
         M[0, 1:] = coupling
@@ -278,7 +279,10 @@ class ReducedModel(SteppedModel):
 
     def potential_energy(self, z: np.ndarray) -> float:
         """Gravity + contact + strain energy."""
-        return self._gravity(z)[0] + self._contact(z)[0] + self._strain.energy(z[1:])
+        b = self.basis
+        S = b.first_moment + b.moment_modes @ z[1:]
+        gravity = self._g * (math.sin(z[0]) * S[0] + math.cos(z[0]) * S[1])
+        return gravity + self._contact(z)[0] + self._strain.energy(z[1:])
 
     def potential_gradient(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Gradient of gravity + contact + strain in z, and the Hessian of gravity + contact
@@ -371,11 +375,14 @@ class ReducedModel(SteppedModel):
 
     def _circle_gap(self, x: tuple) -> tuple[float, float]:
         """Gap of the head's bounding circle to the block and its rate: a lower bound of the gap."""
-        from ..contact import box_signed_distance
+        from ..rigid_contact import point_box
 
         cx, cy, radius = self._head_circle(x[0])
-        d, nx, ny = box_signed_distance(np.array([cx]), np.array([cy]), self.block)
-        return float(d[0]) - radius, self._velocity(x)[0] * float(-cy * nx[0] + cx * ny[0])
+        d, qx, qy = point_box(cx, cy, self.block)
+        if d <= 0.0:  # the centre inside the block: no bound from the circle
+            return -radius, 0.0
+        nx, ny = (cx - qx) / d, (cy - qy) / d
+        return d - radius, self._velocity(x)[0] * (-cy * nx + cx * ny)
 
     def gap_and_rate(self, x: tuple) -> tuple[float, float]:
         """Gap and rate of the closest head point; far from the block (beyond FAR_GAP), the
