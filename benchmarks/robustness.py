@@ -6,6 +6,9 @@
     python benchmarks/robustness.py memory
         peak resident memory of building the FE model and taking one step, against the estimate
         scene.mesh_memory_estimate that refuses meshes too fine for the machine
+    python benchmarks/robustness.py leak --fmu dist/FemPendulum.fmu
+        resident memory over 60 instances refused at initialisation (mesh too fine, nu = 0.5)
+        against 60 valid ones, each freed with fmi2FreeInstance
     python benchmarks/robustness.py findings
         the measurements behind the findings of docs/robustness.md: Gauss points of the discrete
         gradient (steel after violent impacts, rubber after a pulse, cost on the default run),
@@ -161,12 +164,57 @@ def findings() -> None:
         print(out.stdout.strip(), flush=True)
 
 
+LEAK = r"""
+import os, sys
+sys.path.insert(0, sys.argv[3])
+from fmpy.fmi1 import FMICallException
+from test_fmu import Instance
+
+def rss_mb():
+    return int(open("/proc/self/statm").read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+class Freed(Instance):
+    # frees the instance with fmi2FreeInstance also when initialisation is refused
+
+    def __init__(self, *args, **kwargs):
+        try:
+            super().__init__(*args, **kwargs)
+        except FMICallException:
+            self.fmu.fmi2FreeInstance(self.fmu.component)
+            raise
+
+
+start = {"mesh": {"model.mesh_size": 1e-5}, "nu": {"pendulum.nu": 0.5}, "valid": {"model.fidelity": 2}}[sys.argv[2]]
+samples = []
+for k in range(61):
+    try:
+        Freed(sys.argv[1], f"i{k}", **start).close()
+    except FMICallException:
+        pass
+    if k in (0, 20, 40, 60):
+        samples.append(round(rss_mb(), 1))
+print(sys.argv[2], samples, "MB per instance after the first:", round((samples[-1] - samples[0]) / 60, 3))
+sys.stdout.flush()
+os._exit(0)
+"""
+
+
+def leak(fmu: str) -> None:
+    """Memory growth per instance: refused at initialisation and freed, against valid ones instantiated and freed."""
+    for kind in ("mesh", "nu", "valid"):
+        out = subprocess.run([sys.executable, "-c", LEAK, fmu, kind, str(ROOT / "tests")], capture_output=True,
+                             text=True, check=True)
+        print(out.stdout.strip())
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("what", choices=["hard-cases", "memory", "findings"])
+    parser.add_argument("what", choices=["hard-cases", "memory", "findings", "leak"])
+    parser.add_argument("--fmu", default=str(ROOT / "dist" / "FemPendulum.fmu"), help="the FMU (leak)")
     parser.add_argument("-k", help="pytest -k expression (hard-cases)")
     args = parser.parse_args()
-    {"hard-cases": lambda: hard_cases(args.k), "memory": memory, "findings": findings}[args.what]()
+    {"hard-cases": lambda: hard_cases(args.k), "memory": memory, "findings": findings,
+     "leak": lambda: leak(args.fmu)}[args.what]()
 
 
 if __name__ == "__main__":
