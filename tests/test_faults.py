@@ -192,7 +192,7 @@ def test_random_torques_and_steps_never_crash_the_rigid_model(schedule, theta0, 
     _energy_check(model, schedule, 1e-9, 1e-13)
 
 
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(schedule=st.lists(st.tuples(STEP, st.floats(min_value=-5.0, max_value=5.0)), min_size=1, max_size=6),
        theta0=st.floats(min_value=0.0, max_value=0.3))
 def test_random_torques_and_steps_never_crash_the_fe_model(schedule, theta0):
