@@ -472,8 +472,8 @@ def recheck_references(case_names: list[str], fmus: tuple[Path, Path]) -> None:
 
 # ------------------------------------------------------------------ sweep and quick mode
 
-def run_key(scene: str, curve: str, label: str) -> str:
-    return "__".join(x.replace(" ", "_").replace(",", "") for x in (scene, curve, label))
+def run_key(*parts: str) -> str:
+    return "__".join(x.replace(" ", "_").replace(",", "") for x in parts)
 
 
 def save_signals(key: str, run: Run) -> Path:
@@ -492,13 +492,13 @@ def load_signals(path: str | Path) -> Run | None:
                    float(z["time"][-1]))
 
 
-def measure(case: SceneCase, setting: Setting, fmus, repeat: int, t_end: float | None = None) -> dict:
+def measure(case: SceneCase, setting: Setting, fmus, repeat: int, t_end: float | None = None, tag: str = "sweep") -> dict:
     """Time `repeat` runs (errors from the first: with model.threads 1 the runs are bit-identical)."""
     runs = [run_once(case, setting.values, fmus, t_end)]
     if not runs[0].failed:
         runs += [run_once(case, setting.values, fmus, t_end) for _ in range(repeat - 1)]
     first = runs[0]
-    signals = save_signals(run_key(case.name, setting.curve, setting.label), first)
+    signals = save_signals(run_key(tag, case.name, setting.curve, setting.label), first)
     ref = load_reference(case.name)
     row = {"scene": case.name, "curve": setting.curve, "label": setting.label, "values": setting.values,
            "t_end": case.t_end if t_end is None else t_end, "simulated": first.simulated,
@@ -509,6 +509,21 @@ def measure(case: SceneCase, setting: Setting, fmus, repeat: int, t_end: float |
            "metrics": metrics(first, ref, swing_energy(case)) if ref is not None else None,
            "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="minutes")}
     return row
+
+
+def resample(fmus, curves: list[str]) -> None:
+    """Re-run once the rows whose saved samples are missing or do not cover the scene (scoring only:
+    the row's timings stay those of its own runs); the samples go where the row points."""
+    for line in RESULTS.read_text().splitlines():
+        r = json.loads(line)
+        run = load_signals(r.get("signals", ""))
+        if r["curve"] not in curves or run is not None and (r["failed"] or run.time[-1] >= r["t_end"] - COMM_STEP / 2):
+            continue
+        fresh = run_once(SCENE[r["scene"]], r["values"], fmus)
+        path = Path(r["signals"])
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.savez_compressed(path, time=fresh.time, **fresh.signals)
+        print("resampled", r["scene"], r["curve"], r["label"], flush=True)
 
 
 def sweep(args, fmus) -> None:
@@ -563,7 +578,7 @@ def quick_rows(fmus, scenes: list[str] | None = None) -> list[dict]:
         t_end = min(case.t_end, round(float(ref["time"][early_window(ref) - 1]) + QUICK_MARGIN, 3))
         for fidelity in available_fidelities():
             if meant_for(fidelity, case):
-                row = measure(case, settings(fidelity, case)[0], fmus, repeat=1, t_end=t_end)
+                row = measure(case, settings(fidelity, case)[0], fmus, repeat=1, t_end=t_end, tag="quick")
                 row["theta_bound"] = THETA_BOUNDS.get((fidelity, case.name), THETA_TARGET)
                 rows.append(row)
     return rows
@@ -596,7 +611,7 @@ def main(argv: list[str] | None = None) -> None:
         _child(json.loads(argv[1]))
         return
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("command", choices=("references", "recheck", "sweep", "report", "quick"))
+    p.add_argument("command", choices=("references", "recheck", "sweep", "resample", "report", "quick"))
     p.add_argument("--scenes", nargs="+", default=[s.name for s in SCENES], choices=[s.name for s in SCENES])
     p.add_argument("--curves", nargs="+", default=None, help="fidelities and seed schemes (default: all)")
     p.add_argument("--repeat", type=int, default=3)
@@ -614,6 +629,8 @@ def main(argv: list[str] | None = None) -> None:
         fmus = fmus_from(args, Path(tmp))
         if args.command == "references":
             make_references(args.scenes, fmus)
+        elif args.command == "resample":
+            resample(fmus, args.curves)
         elif args.command == "recheck":
             recheck_references(args.scenes, fmus)
         elif args.command == "sweep":
