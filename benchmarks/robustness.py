@@ -133,6 +133,20 @@ elif what == "quadrature":  # rubber (order 3), 2 N.m held in 0.1 ms steps: the 
                                   "energy_error_J": out.total - e0 - out.torque_work, "min_det_F": m.min_det_F()}))
     except StepFailed as exc:
         print(json.dumps({"case": what, "variant": variant, "discarded_at_ms": 1e3 * m.time, "reason": str(exc)}))
+elif what == "resting-tolerance":  # -5 N.m from rest touching the wall, 30 ms in 0.1 ms steps, per solver.tolerance
+    for fidelity in ("rigid", "fem"):
+        for tol in (1e-3, 1e-2, 1e-1):
+            m = create(stiff(**{"model.fidelity": fidelity, "model.mesh_size": 0.06, "theta0": 0.0, "solver.tolerance": tol}))
+            e0, forces, steps, worst, t0 = m.outputs().total, [], 0, 0.0, time.perf_counter()
+            for k in range(1, 301):
+                out = m.advance(k * 1e-4, -5.0)
+                forces.append(out.contact_force)
+                steps += out.substeps
+                worst = max(worst, abs(out.total - e0 - out.torque_work))
+            print(json.dumps({"case": what, "fidelity": fidelity, "tolerance": tol, "steps_per_ms": steps / 30.0,
+                              "mean_force_ratio": float(np.mean(forces)) / (5.0 / 0.24),
+                              "max_force_ratio": max(forces) / (5.0 / 0.24), "energy_error_J": worst,
+                              "s": time.perf_counter() - t0}))
 elif what == "penetration":  # rigid, +-50 N.m square waves, 1 s
     for half in (0.05, 0.1, 0.15):
         m = create(stiff(**{"model.fidelity": "rigid", "theta0": 0.0}))
@@ -156,7 +170,7 @@ elif what == "sequence":  # fem, default scene, 1 s: 1 ms against 0.1 s communic
 
 def findings() -> None:
     jobs = [("gauss-violent", n) for n in (1, 2, 3)] + [("gauss-rubber", n) for n in (2, 3)] + \
-           [("gauss-default", n) for n in (1, 2, 1, 2)] + [("penetration", None), ("sequence", None)] + \
+           [("gauss-default", n) for n in (1, 2, 1, 2)] + [("penetration", None), ("sequence", None), ("resting-tolerance", None)] + \
            [("quadrature", v) for v in ("guard", "no-guard", "no-guard-old-torque-rule", "no-guard-old-strain-rule")]
     for what, n in jobs:
         args = [sys.executable, "-c", FINDINGS, what] + ([str(n)] if n is not None else [])
