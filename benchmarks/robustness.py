@@ -1,6 +1,6 @@
 """Measurements behind docs/robustness.md.
 
-    python benchmarks/robustness.py hard-cases [--fidelities rigid,fem] [-k EXPR]
+    python benchmarks/robustness.py hard-cases [-k EXPR]
         runs tests/test_hard_cases.py with FEM_PENDULUM_ROBUSTNESS_LOG set (the tests record their
         measured worst values before asserting them) and prints one table row per case and fidelity
     python benchmarks/robustness.py memory
