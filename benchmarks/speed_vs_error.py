@@ -391,7 +391,8 @@ def fmus_from(args, tmp: Path) -> tuple[Path, Path]:
 
 
 def code_version() -> str:
-    """The commit the FMU was built from (+ "dirty" when the checkout had changes)."""
+    """The checkout's commit when the row was measured (+ "dirty" with uncommitted changes); the FMU
+    given with --fmu may have been built earlier (docs/speed_vs_error.md says from what)."""
     try:
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
         dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True,
