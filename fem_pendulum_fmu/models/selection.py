@@ -3,8 +3,8 @@
 An impact puts energy into elastic vibration when the contact is short
 against the pendulum's first elastic period; a contact that lasts several
 periods loads the body quasi-statically and a rigid body loses nothing. So the
-rule compares the contact duration t_c (the rigid model's estimate for the
-swing's impact speed, the same estimate the step control uses) with the first
+rule compares the contact duration t_c (the rigid model's estimate, the same the
+step control uses, at the impact speed of `impact_speed`) with the first
 elastic frequency f1 of the hinged pendulum (modes.py):
 
 * a deformable wall: fem (only the FE model meshes the wall);
@@ -30,6 +30,7 @@ LOG = logging.getLogger("fem_pendulum_fmu")
 
 RIGID_CONTACT_PERIODS = 2.0  # f1 * t_c at or above this: the impact is quasi-static for the body
 EXCITED_BAND = 2.0  # an impact of duration t_c excites modes up to EXCITED_BAND / t_c: reduced needs them all
+DESIGN_RELEASE = math.pi / 2  # impacts are judged at least as fast as from a release at this angle
 RIGID_SWING_RATIO = 100.0  # no contact: f1 / f_pendulum at or above this (static deflection < 1e-4 of the swing)
 
 
@@ -50,7 +51,7 @@ def choose(scene: Scene) -> Choice:
     rigid = RigidModel(scene.with_values({"model.fidelity": "rigid"}))
     if rigid.contact_on:
         omega_hit = impact_speed(rigid)
-        if omega_hit > 0.0:
+        if omega_hit > 0.0:  # (always, with gravity or a start speed)
             # the rigid model's contact estimate at the moment of touching, moving into the wall
             t_c, _ = rigid.contact_scales((0.0, -omega_hit, 0.0))
             ratio = f1 * t_c
@@ -90,10 +91,13 @@ def gravity_moment(rigid) -> float:
 
 
 def impact_speed(rigid) -> float:
-    """Angular speed at theta = 0 (where the head touches the wall) of the released swing; 0 if it
-    never gets there. Energy balance of the rigid body without torque."""
-    energy = 0.5 * rigid.inertia * rigid.scene.omega0 ** 2 + gravity_moment(rigid) * (1.0 - math.cos(rigid.scene.theta0))
-    return math.sqrt(2.0 * energy / rigid.inertia) if energy > 0.0 else 0.0
+    """Angular speed at theta = 0, where the head touches the wall: that of the released swing, and
+    at least that of a release from horizontal, since the torque input (unknown at initialisation)
+    can drive a pendulum released at rest against the wall into it (the controller loop does).
+    Energy balance of the rigid body."""
+    mgd = gravity_moment(rigid)
+    energy = 0.5 * rigid.inertia * rigid.scene.omega0 ** 2 + mgd * (1.0 - math.cos(rigid.scene.theta0))
+    return math.sqrt(2.0 * max(energy, mgd * (1.0 - math.cos(DESIGN_RELEASE))) / rigid.inertia)
 
 
 def resolve(scene: Scene) -> str:
