@@ -41,7 +41,12 @@ def test_stored_references_are_small_and_converged():
 def test_quick_mode_defaults_are_within_their_bounds(fmus, tmp_path, monkeypatch):
     monkeypatch.setattr(bench, "RUNS", tmp_path)  # the runs' samples: not into the benchmark's folder
     rows = bench.quick_rows(fmus)
-    assert {r["curve"] for r in rows} == set(bench.available_fidelities())
+    # every fidelity the auto rule gives one of the scenes is checked there; rigid is given none of
+    # them (each has a wall, and the steel plate's vibration needs the reduced model), which its own
+    # acceptance tests (tests/test_rigid.py) cover instead
+    meant = {f for f in bench.available_fidelities() if any(bench.meant_for(f, c) for c in bench.SCENES)}
+    assert meant == {"fem", "reduced"}
+    assert {r["curve"] for r in rows} == meant
     assert {r["scene"] for r in rows if r["curve"] == "fem"} == {c.name for c in bench.SCENES}
     problems = bench.check_quick(rows)
     assert not problems, problems
