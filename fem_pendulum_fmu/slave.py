@@ -39,8 +39,7 @@ OUTPUT_FIELDS = {
     "stress.von_mises_max": "von_mises_max", "solver.substeps": "substeps", "gap_min": "min_gap",
 }
 # Integer aliases of enumerations for masters that cannot set enumerations (libcosim)
-ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity",
-                "solver.scheme_index": "solver.scheme"}
+ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}
 _PY_TYPES = {"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean": Boolean}
 _TIME_TOL = 1e-9
 

@@ -43,7 +43,7 @@ def test_the_design_contract_is_declared():
     assert ifc.by_name("theta").display_unit == "deg" and ifc.by_name("theta0").display_unit == "deg"
     extra = {v.name for v in ifc.variables} - set(CONTRACT)
     assert extra == {"model.threads", "wall.kind_index", "model.fidelity_index", "model.modes",
-                     "solver.max_substeps", "solver.scheme", "gap_min", "solver.scheme_index"}
+                     "solver.max_substeps", "solver.scheme", "gap_min"}
     assert [v.value_reference for v in ifc.variables] == list(range(len(ifc.variables)))
 
 
@@ -86,9 +86,8 @@ def test_the_slave_builds_the_scene_its_parameters_describe():
     scene = slave.scene()
     assert (scene.pendulum.E, scene.wall.kind, scene.model.fidelity, scene.model.compute_stress) == \
         (1e6, "none", "rigid", True)
-    slave.values.update({"wall.kind_index": 1, "model.fidelity_index": 4, "solver.scheme_index": 2})  # Integer wins
-    assert (slave.scene().wall.kind, slave.scene().model.fidelity, slave.scene().solver.scheme) == \
-        ("rigid", "fem", "newmark_fixed")
+    slave.values.update({"wall.kind_index": 1, "model.fidelity_index": 4})  # an explicit Integer setting wins
+    assert (slave.scene().wall.kind, slave.scene().model.fidelity) == ("rigid", "fem")
     slave.values["wall.kind"] = 7
     slave.values["wall.kind_index"] = 0
     with pytest.raises(ValueError, match=r"wall.kind = 7 is not allowed: choose one of 1 \(rigid\)"):
