@@ -186,51 +186,22 @@ def fmi_values(case: SceneCase, values: dict) -> dict:
 
 def _child(spec: dict) -> None:
     """Run one scene through the FMU and save the sampled outputs and the timings to spec['out']."""
-    from fmpy import extract, read_model_description
     from fmpy.fmi1 import FMICallException
-    from fmpy.fmi2 import FMU2Slave
 
-    class Instance:
-        def __init__(self, path: str, name: str, values: dict):
-            self.md = read_model_description(path)
-            self.var = {v.name: v for v in self.md.modelVariables}
-            self.dir = extract(path)
-            self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir, instanceName=name,
-                                 modelIdentifier=self.md.coSimulation.modelIdentifier)
-            self.fmu.instantiate()
-            self.fmu.setupExperiment(startTime=0.0)
-            self.fmu.enterInitializationMode()
-            for key, value in values.items():
-                self.set(key, value)
-            self.fmu.exitInitializationMode()
-
-        def set(self, name, value):
-            v = self.var[name]
-            if v.type == "Real":
-                self.fmu.setReal([v.valueReference], [float(value)])
-            elif v.type == "Boolean":
-                self.fmu.setBoolean([v.valueReference], [bool(value)])
-            else:
-                self.fmu.setInteger([v.valueReference], [int(value)])
-
-        def get(self, names):
-            return self.fmu.getReal([self.var[n].valueReference for n in names])
-
-        def substeps(self):
-            return self.fmu.getInteger([self.var["solver.substeps"].valueReference])[0]
+    from fem_pendulum_fmu.masters.named_slave import NamedSlave
 
     t0 = time.perf_counter()
-    pendulum = Instance(spec["fmu"], "pendulum", spec["values"])
+    pendulum = NamedSlave(spec["fmu"], "pendulum", spec["values"])
     controller = None
     if spec["loop"]:
         from fem_pendulum_fmu.masters.controller_loop import LoopSettings, drive
 
         loop = LoopSettings()
-        controller = Instance(spec["pid"], "pid", {"Kp": loop.kp, "Ki": loop.ki, "Kd": loop.kd,
-                                                   "u_max": loop.drive_limit})
+        controller = NamedSlave(spec["pid"], "pid", {"Kp": loop.kp, "Ki": loop.ki, "Kd": loop.kd,
+                                                     "u_max": loop.drive_limit})
     init = time.perf_counter() - t0
     h, n = COMM_STEP, int(round(spec["t_end"] / COMM_STEP))
-    rows = [pendulum.get(RECORDED)]
+    rows = [pendulum.get(*RECORDED)]
     substeps = 0
     failed = None
     t = 0.0
@@ -241,7 +212,7 @@ def _child(spec: dict) -> None:
             controller.set("setpoint", loop.setpoint(t))
             controller.set("measurement", rows[-1][0])
             controller.fmu.doStep(t, h)
-            torque = drive(controller.get(["u"])[0], loop.drive_limit)
+            torque = drive(controller.get("u")[0], loop.drive_limit)
         pendulum.set("torque", torque)
         try:
             pendulum.fmu.doStep(t, h)
@@ -249,8 +220,8 @@ def _child(spec: dict) -> None:
             failed = f"doStep at t = {t:.3f} s: {exc}"
             break
         t = (k + 1) * h
-        rows.append(pendulum.get(RECORDED))
-        substeps += pendulum.substeps()
+        rows.append(pendulum.get(*RECORDED))
+        substeps += pendulum.fmu.getInteger([pendulum.vr["solver.substeps"]])[0]
         e = rows[-1][RECORDED.index("energy.total")] - rows[0][RECORDED.index("energy.total")] \
             - rows[-1][RECORDED.index("energy.torque_work")]
         if abs(e) > spec.get("abort_energy", math.inf):

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .named_slave import NamedSlave
 from .open_loop import parse_start_values
 
 
@@ -38,48 +39,6 @@ def drive(demand: float, limit: float) -> float:
     return max(-limit, min(limit, demand))
 
 
-class _Slave:
-    """An fmpy FMU2Slave with name-based access."""
-
-    def __init__(self, path: Path, name: str, start_values: dict):
-        from fmpy import extract, read_model_description
-        from fmpy.fmi2 import FMU2Slave
-
-        self.md = read_model_description(str(path))
-        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
-        self.types = {v.name: v.type for v in self.md.modelVariables}
-        self.dir = extract(str(path))
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
-                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate()
-        self.fmu.setupExperiment(startTime=0.0)
-        self.fmu.enterInitializationMode()
-        for key, value in start_values.items():
-            self.set(key, value)
-        self.fmu.exitInitializationMode()
-
-    def set(self, name: str, value) -> None:
-        typ = self.types[name]
-        if typ == "Real":
-            self.fmu.setReal([self.vr[name]], [float(value)])
-        elif typ == "Boolean":
-            self.fmu.setBoolean([self.vr[name]], [bool(value)])
-        else:
-            self.fmu.setInteger([self.vr[name]], [int(value)])
-
-    def get(self, *names: str) -> list[float]:
-        return self.fmu.getReal([self.vr[n] for n in names])
-
-    def close(self) -> None:
-        import shutil
-
-        self.fmu.terminate()
-        # free the instance, keep the library: unloading pythonfmu's binary while this interpreter
-        # still holds objects it created can corrupt the heap when the process exits
-        self.fmu.fmi2FreeInstance(self.fmu.component)
-        shutil.rmtree(self.dir, ignore_errors=True)
-
-
 OUTPUTS = ("theta", "omega", "gap", "contact_force", "energy.total", "energy.torque_work")
 
 
@@ -90,8 +49,8 @@ def run_loop(fmu: Path, pid: Path, stop_time: float = 2.0, step: float = 1e-3, s
 
     values = {"theta0": 0.0}
     values.update(start_values or {})
-    pendulum = _Slave(fmu, "pendulum", values)
-    controller = _Slave(pid, "pid", {"Kp": settings.kp, "Ki": settings.ki, "Kd": settings.kd,
+    pendulum = NamedSlave(fmu, "pendulum", values)
+    controller = NamedSlave(pid, "pid", {"Kp": settings.kp, "Ki": settings.ki, "Kd": settings.kd,
                                      "u_max": settings.drive_limit})
     n = int(round(stop_time / step))
     rows = []

@@ -1,0 +1,46 @@
+"""One FMU instance addressed by variable name, for the masters and benchmarks (fmpy)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class NamedSlave:
+    """An fmpy FMU2Slave with name-based access, instantiated and initialised with start values."""
+
+    def __init__(self, path: Path, name: str, start_values: dict):
+        from fmpy import extract, read_model_description
+        from fmpy.fmi2 import FMU2Slave
+
+        self.md = read_model_description(str(path))
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.types = {v.name: v.type for v in self.md.modelVariables}
+        self.dir = extract(str(path))
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
+                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu.instantiate()
+        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        for key, value in start_values.items():
+            self.set(key, value)
+        self.fmu.exitInitializationMode()
+
+    def set(self, name: str, value) -> None:
+        typ = self.types[name]
+        if typ == "Real":
+            self.fmu.setReal([self.vr[name]], [float(value)])
+        elif typ == "Boolean":
+            self.fmu.setBoolean([self.vr[name]], [bool(value)])
+        else:
+            self.fmu.setInteger([self.vr[name]], [int(value)])
+
+    def get(self, *names: str) -> list[float]:
+        return self.fmu.getReal([self.vr[n] for n in names])
+
+    def close(self) -> None:
+        import shutil
+
+        self.fmu.terminate()
+        # free the instance, keep the library: unloading pythonfmu's binary while this interpreter
+        # still holds objects it created can corrupt the heap when the process exits
+        self.fmu.fmi2FreeInstance(self.fmu.component)
+        shutil.rmtree(self.dir, ignore_errors=True)
