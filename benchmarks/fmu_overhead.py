@@ -43,8 +43,8 @@ print(t_init, (time.perf_counter() - t0) / n)
 
 DIRECT = """
 import sys, time
-from fem_pendulum_fmu.models import create
-from fem_pendulum_fmu.scene import stiff
+from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.scene import stiff
 n, fidelity = int(sys.argv[1]), sys.argv[2]
 m = create(stiff(**{"model.fidelity": fidelity}))
 t0 = time.perf_counter()

@@ -15,8 +15,8 @@ import time
 
 import numpy as np
 
-from fem_pendulum_fmu.models import create
-from fem_pendulum_fmu.scene import PRESETS
+from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.scene import PRESETS
 
 DT = 1e-3
 

@@ -56,8 +56,8 @@ def memory() -> None:
     script = """
 import os, resource, sys, time, json
 os.environ['FEM_PENDULUM_CACHE'] = 'off'
-from fem_pendulum_fmu.models.fem import FemModel
-from fem_pendulum_fmu.scene import stiff, estimated_unknowns, mesh_memory_estimate
+from fem_pendulum_fmu.physics.models.fem import FemModel
+from fem_pendulum_fmu.physics.scene import stiff, estimated_unknowns, mesh_memory_estimate
 h, p = float(sys.argv[1]), int(sys.argv[2])
 scene = stiff(**{'model.mesh_size': h, 'model.order': p, 'theta0': 0.05})
 r0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
@@ -81,12 +81,12 @@ import json, math, sys, time
 import numpy as np
 what = sys.argv[1]
 if what.startswith("gauss"):
-    import fem_pendulum_fmu.material as material
+    import fem_pendulum_fmu.physics.material as material
     original = material.averaged_pk2_stress
     n = int(sys.argv[2])
     material.averaged_pk2_stress = lambda C0, C1, lam, mu, points: original(C0, C1, lam, mu, n)
-from fem_pendulum_fmu.models import create
-from fem_pendulum_fmu.scene import compliant, stiff
+from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.scene import compliant, stiff
 
 def worst(model, schedule):
     e0, w, t0 = model.outputs().total, 0.0, time.perf_counter()
@@ -109,8 +109,8 @@ elif what == "gauss-default":  # the default scene released at 20 degrees, 0.5 s
     w, out, secs = worst(m, [(k * 1e-3, 0.0) for k in range(1, 501)])
     print(json.dumps({"case": what, "points": n, "worst_J": w, "s": secs}))
 elif what == "quadrature":  # rubber (order 3), 2 N.m held in 0.1 ms steps: the energy guard, and the rules used before
-    import fem_pendulum_fmu.models.fem as fem
-    from fem_pendulum_fmu.models import StepFailed
+    import fem_pendulum_fmu.physics.models.fem as fem
+    from fem_pendulum_fmu.physics.models import StepFailed
     from ngsolve import BND
     integrate, variant = fem.Integrate, sys.argv[2]
     if variant != "guard":
@@ -208,8 +208,6 @@ for k in range(61):
     if k in (0, 20, 40, 60):
         samples.append(round(rss_mb(), 1))
 print(sys.argv[2], samples, "MB per instance after the first:", round((samples[-1] - samples[0]) / 60, 3))
-sys.stdout.flush()
-os._exit(0)
 """
 
 

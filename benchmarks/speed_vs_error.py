@@ -97,13 +97,13 @@ REFERENCE_LEVELS = (
 
 def scene_of(case: SceneCase, values: dict | None = None):
     """The Scene a case (plus FMI values) describes."""
-    from fem_pendulum_fmu.scene import PRESETS
+    from fem_pendulum_fmu.physics.scene import PRESETS
 
     return PRESETS[case.preset]().with_values({**case.values, **(values or {})})
 
 
 def available_fidelities() -> tuple[str, ...]:
-    from fem_pendulum_fmu import models
+    from fem_pendulum_fmu.physics import models
 
     return tuple(models.AVAILABLE)
 
@@ -115,7 +115,7 @@ def supports(fidelity: str, case: SceneCase) -> bool:
 
 def meant_for(fidelity: str, case: SceneCase) -> bool:
     """fem is meant for every scene; another fidelity for the scenes the auto rule gives it."""
-    from fem_pendulum_fmu.models import resolve_fidelity
+    from fem_pendulum_fmu.physics.models import resolve_fidelity
 
     if fidelity == "fem":
         return True
@@ -167,8 +167,8 @@ def curves() -> list[str]:
 
 def fmi_values(case: SceneCase, values: dict) -> dict:
     """FMI start values (enumerations as integers) for every parameter that differs from the FMU's start."""
-    from fem_pendulum_fmu import interface
-    from fem_pendulum_fmu.scene import Scene, get_path
+    from fem_pendulum_fmu.fmi import interface
+    from fem_pendulum_fmu.physics.scene import Scene, get_path
 
     scene, default = scene_of(case, values), Scene()
     out = {}
@@ -231,8 +231,6 @@ def _child(spec: dict) -> None:
     data = np.array(rows)
     np.savez(spec["out"], time=np.arange(len(rows)) * h, data=data, wall=wall, cpu=cpu, init=init,
              substeps=substeps, failed=json.dumps(failed), simulated=t)
-    sys.stdout.flush()
-    os._exit(0)  # skip interpreter teardown with pythonfmu's binary loaded (see controller_loop.close)
 
 
 @dataclass
@@ -268,7 +266,7 @@ def run_once(case: SceneCase, values: dict, fmus: tuple[Path, Path], t_end: floa
 
 def swing_energy(case: SceneCase) -> float:
     """m g d (1 - cos 20 deg) of the scene's pendulum: the energy of the swing every scene is about."""
-    from fem_pendulum_fmu.models.rigid import geometry_moments
+    from fem_pendulum_fmu.physics.models.rigid import geometry_moments
 
     scene = scene_of(case)
     area, first_moment, _ = geometry_moments(scene.geometry)

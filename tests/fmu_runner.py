@@ -1,8 +1,7 @@
 """Run a schedule of communication steps through the FMU in a fresh interpreter (fmpy FMU2Slave).
 
 Shared by the robustness tests and benchmarks/robustness.py. One instance per
-run, freed with fmi2FreeInstance only and the interpreter left with os._exit
-(pythonfmu's binary must not be unloaded in a process that lives on).
+run, freed (fmi2FreeInstance, library unloaded) before the next.
 """
 from __future__ import annotations
 
@@ -37,8 +36,6 @@ def run_schedule(fmu: str, params: dict, schedule: list, repeat: int = 1) -> lis
 
 
 def _child() -> None:
-    import os
-
     from fmpy.fmi1 import FMICallException
     from test_fmu import Instance
 
@@ -68,11 +65,8 @@ def _child() -> None:
             t += h
             rows.append(row(t, 0))
         runs.append(rows)
-        inst.fmu.terminate()
-        inst.fmu.fmi2FreeInstance(inst.fmu.component)
+        inst.close()
     print(json.dumps(runs))
-    sys.stdout.flush()
-    os._exit(0)
 
 
 def col(run: np.ndarray, name: str) -> np.ndarray:

@@ -1,7 +1,12 @@
-"""A C host (examples/c_host/fmi2_host.c) runs the FMU with the environment fem-pendulum-host-env prints."""
+"""A native C host (examples/c_host/fmi2_host.c) runs the FMU with no environment variables at all.
+
+The FMU's front binary (fem_pendulum_fmu/fmi/shim) starts the Python recorded
+at build time; the host loads, steps, saves and restores a state, frees the
+instance, unloads the library and exits with 0 (docs/fmu.md says what crashed
+here before).
+"""
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 import sys
@@ -9,11 +14,13 @@ from pathlib import Path
 
 import fmpy
 import numpy as np
+import pytest
 from fmpy import extract, read_model_description
 
-from fem_pendulum_fmu.host_env import host_environment
+from fem_pendulum_fmu.fmi.host_env import host_environment
 
 ROOT = Path(__file__).resolve().parents[1]
+RIGID, FEM = 2, 4  # model.fidelity items
 
 FMPY_RUN = """
 import sys
@@ -21,38 +28,81 @@ from fmpy import simulate_fmu
 r = simulate_fmu(sys.argv[1], stop_time=0.3, step_size=1e-3, output_interval=1e-3, start_values={"model.fidelity": 2})
 for t, theta in zip(r["time"][1:], r["theta"][1:]):
     print(repr(float(t)), repr(float(theta)))
-import os; sys.stdout.flush(); os._exit(0)
 """
 
 
-def test_c_host_with_the_printed_environment_matches_fmpy(fmus, tmp_path):
+@pytest.fixture(scope="module")
+def host(fmus, tmp_path_factory) -> list[str]:
+    """The compiled C host and its first arguments: the extracted FMU folder and its GUID."""
     fmu, _ = fmus
-    host = tmp_path / "fmi2_host"
-    headers = Path(fmpy.__file__).parent / "c-code"
+    folder = tmp_path_factory.mktemp("c_host")
+    binary = folder / "fmi2_host"
     compiler = shutil.which("cc") or shutil.which("gcc")
-    assert compiler, "a C compiler is needed for the FMU's status shim and this host"
-    subprocess.run([compiler, "-O1", f"-I{headers}", str(ROOT / "examples" / "c_host" / "fmi2_host.c"), "-ldl",
-                    "-o", str(host)], check=True)
-    md = read_model_description(str(fmu))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    folder = extract(str(fmu), unzipdir=str(tmp_path / "fmu"))
-    args = [str(host), folder, md.guid, "300", str(vr["model.fidelity"]), str(vr["theta"])]
+    assert compiler, "a C compiler is needed for the FMU's front binary and this host"
+    subprocess.run([compiler, "-O1", "-Wall", f"-I{Path(fmpy.__file__).parent / 'c-code'}",
+                    str(ROOT / "examples" / "c_host" / "fmi2_host.c"), "-ldl", "-o", str(binary)], check=True)
+    return [str(binary), extract(str(fmu), unzipdir=str(folder / "fmu")), read_model_description(str(fmu)).guid]
 
-    clean = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "LD_PRELOAD"))}
-    clean["PATH"] = os.defpath
-    bare = subprocess.run(args, env=clean, capture_output=True, text=True, timeout=120)
-    assert bare.returncode == 3 and "host environment" in bare.stderr  # without it: refused, no crash
 
-    env = {**clean, **{k: v.replace("$PATH", clean["PATH"]) for k, v in host_environment().items()}}
-    run = subprocess.run(args, env=env, capture_output=True, text=True, timeout=120)
-    assert run.returncode == 0, run.stderr[-3000:]
+def run_host(host: list[str], fmu: Path, steps: int, fidelity: int, env: dict | None = None):
+    vr = {v.name: v.valueReference for v in read_model_description(str(fmu)).modelVariables}
+    args = [*host, str(steps), str(fidelity), str(vr["model.fidelity"]), str(vr["theta"])]
+    return subprocess.run(args, env=env or {}, capture_output=True, text=True, timeout=300)
+
+
+def check_run(run) -> list[str]:
+    """The run exited with 0, refused the NaN torque with fmi2Error and replayed the state bit for bit."""
+    assert run.returncode == 0, f"exit code {run.returncode}\n{run.stderr[-3000:]}"
     lines = run.stdout.split("\n")
-    assert "nan-torque-status 3" in lines  # fmi2Error, as through fmpy
-    assert "initialised RigidModel" in run.stderr  # the FMI logger callback got the package's log
-    c_rows = np.array([[float(x) for x in line.split()] for line in lines if line and not line.startswith("nan")])
+    assert "nan-torque-status 3" in lines
+    assert "torque = nan is not allowed" in run.stderr  # the error reached the host's logger, logging off
+    first = [line.split()[1] for line in lines if line.startswith("pass0")]
+    again = [line.split()[1] for line in lines if line.startswith("pass1")]
+    assert len(first) == 5 and first == again
+    return lines
 
+
+def test_c_host_without_environment_matches_fmpy(fmus, host):
+    fmu, _ = fmus
+    lines = check_run(run_host(host, fmu, 300, RIGID))
+    c_rows = np.array([[float(x) for x in line.split()] for line in lines if line[:1].isdigit()])
     ref = subprocess.run([sys.executable, "-c", FMPY_RUN, str(fmu)], capture_output=True, text=True, check=True)
     fmpy_rows = np.array([[float(x) for x in line.split()] for line in ref.stdout.split("\n") if line])
     assert c_rows.shape == fmpy_rows.shape == (300, 2)
     assert np.min(c_rows[:, 1]) < 0.01  # it swung down to the wall in 0.3 s
     assert np.max(np.abs(c_rows - fmpy_rows)) <= 1e-12
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fidelity", [FEM, RIGID], ids=["fem", "rigid"])
+def test_c_host_exits_cleanly_every_time(fmus, host, fidelity):
+    """pythonfmu's binary alone crashed native hosts at exit (use-after-free, NGSolve's cleanup)."""
+    fmu, _ = fmus
+    codes = []
+    for _ in range(20):
+        run = run_host(host, fmu, 10, fidelity)
+        codes.append(run.returncode)
+        check_run(run)
+    assert codes == [0] * 20
+
+
+def test_host_env_points_the_fmu_at_an_environment(fmus, host):
+    fmu, _ = fmus
+    check_run(run_host(host, fmu, 10, RIGID, env=host_environment()))
+
+
+def test_without_a_python_instantiate_fails_with_what_to_set(fmus, host):
+    fmu, _ = fmus
+    run = run_host(host, fmu, 10, RIGID, env={"FEM_PENDULUM_LIBPYTHON": "/nonexistent/libpython3.so"})
+    assert run.returncode == 3, run.stderr  # fmi2Instantiate returned NULL: refused, no crash
+    assert "cannot load /nonexistent/libpython3.so" in run.stderr
+    assert "FEM_PENDULUM_LIBPYTHON" in run.stderr and "fem-pendulum host-env" in run.stderr
+
+
+def test_host_env_names_this_environment():
+    env = host_environment()
+    assert Path(env["FEM_PENDULUM_LIBPYTHON"]).is_file() and "libpython" in env["FEM_PENDULUM_LIBPYTHON"]
+    assert env["FEM_PENDULUM_PYTHON"] == sys.executable
+    printed = subprocess.run([str(Path(sys.executable).parent / "fem-pendulum"), "host-env"], check=True,
+                             capture_output=True, text=True).stdout
+    assert printed.splitlines() == [f'export {k}="{v}"' for k, v in env.items()]

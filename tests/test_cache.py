@@ -7,14 +7,14 @@ import sys
 
 import numpy as np
 
-from fem_pendulum_fmu import cache
-from fem_pendulum_fmu.models import create
-from fem_pendulum_fmu.scene import stiff
+from fem_pendulum_fmu.physics import cache
+from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.scene import stiff
 
 WRITER = """
 import sys, time
 from pathlib import Path
-from fem_pendulum_fmu import cache
+from fem_pendulum_fmu.physics import cache
 def write(path):
     data = bytes(range(256)) * 4000
     with open(path, "wb") as f:

@@ -17,9 +17,9 @@ import math
 import numpy as np
 import pytest
 
-from fem_pendulum_fmu.models import create
-from fem_pendulum_fmu.models.base import ModelState
-from fem_pendulum_fmu.scene import compliant, stiff
+from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.protocol import ModelState
+from fem_pendulum_fmu.physics.scene import compliant, stiff
 
 G = 9.81
 

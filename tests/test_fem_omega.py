@@ -8,8 +8,8 @@ import math
 
 import pytest
 
-from fem_pendulum_fmu.models import create
-from fem_pendulum_fmu.scene import stiff
+from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.scene import stiff
 
 
 @pytest.mark.parametrize("degrees", [0.0, 20.0, 60.0, -120.0])

@@ -17,9 +17,9 @@ import math
 import numpy as np
 import pytest
 
-from fem_pendulum_fmu.models import AVAILABLE, PendulumModel, create
-from fem_pendulum_fmu.models.base import ModelState, StepFailed
-from fem_pendulum_fmu.scene import stiff
+from fem_pendulum_fmu.physics.models import AVAILABLE, PendulumModel, create
+from fem_pendulum_fmu.physics.protocol import ModelState, StepFailed
+from fem_pendulum_fmu.physics.scene import stiff
 
 FIDELITIES = ("rigid", "reduced", "fem")
 DT = 1e-3

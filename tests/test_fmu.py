@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -34,8 +35,7 @@ def isolated(body):
 
     def test(fmus, tmp_path):
         script = (f"import sys; from pathlib import Path; sys.path.insert(0, {TESTS!r}); import test_fmu; "
-                  f"test_fmu.{body.__name__}.body((Path({str(fmus[0])!r}), Path({str(fmus[1])!r})), Path({str(tmp_path)!r})); "
-                  "import os; sys.stdout.flush(); os._exit(0)")
+                  f"test_fmu.{body.__name__}.body((Path({str(fmus[0])!r}), Path({str(fmus[1])!r})), Path({str(tmp_path)!r})); ")
         run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
         assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
 
@@ -91,10 +91,10 @@ class Instance:
         return self.get("theta", "omega", "gap", "energy.total", "energy.torque_work")
 
     def close(self):
-        # free the instance but keep the library loaded: unloading pythonfmu's binary while the
-        # interpreter still holds objects it created can corrupt the heap at exit
+        """Terminate, free the instance, unload the library and delete the extraction folder."""
         self.fmu.terminate()
-        self.fmu.fmi2FreeInstance(self.fmu.component)
+        self.fmu.freeInstance()
+        shutil.rmtree(self.dir, ignore_errors=True)
 
 
 def test_built_fmu_passes_fmpy_validation_and_carries_the_template(fmus):
@@ -200,7 +200,6 @@ state = inst.fmu.deSerializeFMUstate(open({blob!r}, 'rb').read())
 inst.fmu.setFMUstate(state)
 inst.t = {t!r}
 print(json.dumps([inst.step(1e-3, -0.3) for _ in range(10)]))
-import os; sys.stdout.flush(); os._exit(0)  # skip interpreter teardown with the FMU loaded
 """
 
 
@@ -300,7 +299,6 @@ for k in range(300):
     ex.step()
     rows.append(list(observer.last_real_values(idx, outs)))
 open(sys.argv[2], "w").write(json.dumps(rows))
-import os; os._exit(0)  # skip interpreter teardown with the FMU loaded
 """
 
 
@@ -316,7 +314,7 @@ def test_libcosim_master_matches_fmpy(fmus, tmp_path):
               "('theta', 'omega', 'gap', 'contact_force', 'energy.total', 'energy.torque_work'); rows = []\n"
               "for k in range(300):\n"
               "    i.step(1e-3, -2.0 * math.sin(10.0 * k * 1e-3)); rows.append(i.get(*names))\n"
-              "print(json.dumps(rows)); import os; sys.stdout.flush(); os._exit(0)")
+              "print(json.dumps(rows))")
     ref = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
     fmpy_rows = np.array(json.loads(ref.stdout.strip().splitlines()[-1]))
     assert fmpy_rows[:, 3].max() > 0 or fmpy_rows[:, 2].min() < 0.01  # driven towards the wall

@@ -21,8 +21,8 @@ import os
 import numpy as np
 import pytest
 
-from fem_pendulum_fmu import models
-from fem_pendulum_fmu.scene import compliant, stiff
+from fem_pendulum_fmu.physics import models
+from fem_pendulum_fmu.physics.scene import compliant, stiff
 
 from fmu_runner import COMPLIANT, STIFF, col, run_schedule
 

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from fem_pendulum_fmu import interface
-from fem_pendulum_fmu.models.base import Outputs
-from fem_pendulum_fmu.scene import FIDELITIES, WALL_KINDS, Scene, get_path
-from fem_pendulum_fmu.slave import ENUM_ALIASES, OUTPUT_FIELDS, PendulumSlave
+from fem_pendulum_fmu.fmi import interface
+from fem_pendulum_fmu.physics.protocol import Outputs
+from fem_pendulum_fmu.physics.scene import FIDELITIES, WALL_KINDS, Scene, get_path
+from fem_pendulum_fmu.fmi.slave import ENUM_ALIASES, OUTPUT_FIELDS, PendulumSlave
 
 ROOT = Path(__file__).resolve().parents[1]
 TEMPLATE = ROOT / interface.TEMPLATE_NAME
@@ -121,6 +121,6 @@ def test_readme_variable_table_is_generated_from_the_template():
     start, end = "<!-- interface-table:start -->", "<!-- interface-table:end -->"
     table = text[text.index(start) + len(start):text.index(end)].strip()
     assert table == interface.markdown_table().strip()
-    printed = subprocess.run([sys.executable, "-m", "fem_pendulum_fmu.interface", "--markdown"], check=True,
+    printed = subprocess.run([sys.executable, "-m", "fem_pendulum_fmu.fmi.interface", "--markdown"], check=True,
                              capture_output=True, text=True).stdout
     assert printed.strip() == table

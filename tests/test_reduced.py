@@ -12,9 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from fem_pendulum_fmu import modes
-from fem_pendulum_fmu.models import create, reduced, selection
-from fem_pendulum_fmu.scene import compliant, stiff
+from fem_pendulum_fmu.physics import modes
+from fem_pendulum_fmu.physics.models import create, reduced, selection
+from fem_pendulum_fmu.physics.scene import compliant, stiff
 
 DT = 1e-3
 # Newton stops when a step's energy imbalance is below ENERGY_TOL of the energies it moves (|E| < 2 J

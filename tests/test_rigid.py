@@ -23,11 +23,11 @@ import math
 import numpy as np
 import pytest
 
-from fem_pendulum_fmu import rigid_contact as rc
-from fem_pendulum_fmu.models import create
-from fem_pendulum_fmu.models.base import ModelState, StepFailed
-from fem_pendulum_fmu.models.rigid import RigidModel
-from fem_pendulum_fmu.scene import WallBlock, stiff
+from fem_pendulum_fmu.physics import rigid_contact as rc
+from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.protocol import ModelState, StepFailed
+from fem_pendulum_fmu.physics.models.rigid import RigidModel
+from fem_pendulum_fmu.physics.scene import WallBlock, stiff
 
 G = 9.81
 DT = 1e-3  # communication step of the FMU masters

@@ -12,9 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from fem_pendulum_fmu.models import create
-from fem_pendulum_fmu.scene import stiff
-from fem_pendulum_fmu.seed_stepping import gap_rule_step
+from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.scene import stiff
+from fem_pendulum_fmu.physics.seed_stepping import gap_rule_step
 
 COARSE = {"model.mesh_size": 0.06}
 

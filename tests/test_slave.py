@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from pythonfmu.enums import Fmi2Status
 
-from fem_pendulum_fmu import slave as slave_module
-from fem_pendulum_fmu.models.base import ModelState, Outputs, StepFailed
+from fem_pendulum_fmu.fmi import slave as slave_module
+from fem_pendulum_fmu.physics.protocol import ModelState, Outputs, StepFailed
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -128,15 +128,16 @@ def plot_loop(result: np.ndarray, path: Path) -> Path:
     return path
 
 
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fmu", type=Path, default=Path("dist") / "FemPendulum.fmu")
     parser.add_argument("--pid", type=Path, default=Path("dist") / "PidController.fmu")
     parser.add_argument("--stop-time", type=float, default=2.0)
     parser.add_argument("--step", type=float, default=1e-3)
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     parser.add_argument("--out", type=Path, default=Path("out") / "control")
-    args = parser.parse_args(argv)
+
+
+def command(args: argparse.Namespace) -> None:
     result = run_loop(args.fmu, args.pid, args.stop_time, args.step, parse_start_values(args.set))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     csv = args.out.with_suffix(".csv")
@@ -145,6 +146,12 @@ def main(argv: list[str] | None = None) -> None:
     png = plot_loop(result, args.out.with_suffix(".png"))
     print(f"wrote {csv} and {png}; RMS tracking error away from the wall {math.degrees(tracking_error(result)):.2f} deg, "
           f"{len(wall_impacts(result))} wall impacts, min gap {result['gap'].min() * 1e3:.3f} mm")
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_arguments(parser)
+    command(parser.parse_args(argv))
 
 
 if __name__ == "__main__":

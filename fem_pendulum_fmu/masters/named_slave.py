@@ -40,7 +40,5 @@ class NamedSlave:
         import shutil
 
         self.fmu.terminate()
-        # free the instance, keep the library: unloading pythonfmu's binary while this interpreter
-        # still holds objects it created can corrupt the heap when the process exits
-        self.fmu.fmi2FreeInstance(self.fmu.component)
+        self.fmu.freeInstance()  # frees the instance and unloads the library
         shutil.rmtree(self.dir, ignore_errors=True)

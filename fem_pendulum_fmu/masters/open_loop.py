@@ -26,7 +26,7 @@ def read_torque_csv(path: Path) -> np.ndarray:
 def parse_start_values(items: list[str]) -> dict:
     """NAME=VALUE pairs to start values; an enumeration takes its item name (model.fidelity=auto)
     or number, a Boolean true/false."""
-    from .. import interface
+    from ..fmi import interface
 
     ifc = interface.load()
     values = {}
@@ -74,15 +74,16 @@ def run(fmu: Path, torque: np.ndarray | None, stop_time: float, step: float, sta
             bar.close()
 
 
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fmu", type=Path, default=DEFAULT_FMU)
     parser.add_argument("--torque", type=Path, help="CSV with columns time,torque")
     parser.add_argument("--stop-time", type=float, default=2.0)
     parser.add_argument("--step", type=float, default=1e-3, help="communication step (s)")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="start value of a parameter")
     parser.add_argument("--out", type=Path, default=Path("out") / "run", help="prefix of the CSV and PNG written")
-    args = parser.parse_args(argv)
+
+
+def command(args: argparse.Namespace) -> None:
     from fmpy.util import write_csv
 
     from .plots import plot_results
@@ -96,6 +97,12 @@ def main(argv: list[str] | None = None) -> None:
     err = result["energy.total"] - result["energy.total"][0] - result["energy.torque_work"]
     print(f"wrote {csv} and {png}; min gap {result['gap'].min():.3e} m, "
           f"max contact force {result['contact_force'].max():.1f} N, max |E - E0 - W| {np.abs(err).max():.2e} J")
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_arguments(parser)
+    command(parser.parse_args(argv))
 
 
 if __name__ == "__main__":

@@ -24,7 +24,7 @@ from .. import rigid_contact
 from ..geometry import make_mesh
 from ..scene import PendulumGeometry, Scene, validate
 from ..stepping import StepControl, SteppedModel
-from .base import ModelState, Outputs
+from ..protocol import ModelState, Outputs
 
 # Mesh for the mass properties: converged to ~1e-10 relative (0.005/order 5 agrees to 1e-10).
 MASS_MESH_SIZE = 0.004

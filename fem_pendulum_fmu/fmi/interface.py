@@ -1,7 +1,7 @@
 """Reads modelDescription.template.xml, the one declaration of the FMI interface.
 
 The slave registers its variables from it, build_fmu.py renders it into the
-FMU's modelDescription.xml, and `python -m fem_pendulum_fmu.interface
+FMU's modelDescription.xml, and `python -m fem_pendulum_fmu.fmi.interface
 --markdown` prints the README's variable table from it.
 """
 from __future__ import annotations
@@ -57,14 +57,14 @@ class Interface:
 
 
 def template_path(resources: str | os.PathLike | None = None) -> Path:
-    """The template inside an FMU's resources folder, else next to the package (source checkout)."""
+    """The template inside an FMU's resources folder, else the one this package carries (fmi/)."""
     candidates = []
     if resources:
         candidates.append(Path(resources) / TEMPLATE_NAME)
     if os.environ.get("FEM_PENDULUM_TEMPLATE"):
         candidates.append(Path(os.environ["FEM_PENDULUM_TEMPLATE"]))
     here = Path(__file__).resolve().parent
-    candidates += [here.parent / TEMPLATE_NAME, here / TEMPLATE_NAME]
+    candidates.append(here / TEMPLATE_NAME)
     for path in candidates:
         if path.is_file():
             return path
@@ -127,11 +127,12 @@ def markdown_table(interface: Interface | None = None) -> str:
     return "\n".join(rows)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description="Print the FMI interface declared in the template.")
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--markdown", action="store_true", help="print the README's variable table")
     parser.add_argument("--write-readme", type=Path, metavar="README", help="replace the table between the markers")
-    args = parser.parse_args()
+
+
+def command(args: argparse.Namespace) -> None:
     if args.write_readme:
         text = args.write_readme.read_text()
         start, end = "<!-- interface-table:start -->", "<!-- interface-table:end -->"
@@ -143,6 +144,12 @@ def main() -> None:
     else:
         for v in load().variables:
             print(v.value_reference, v.name, v.causality, v.type, v.unit or "", v.start)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description="Print the FMI interface declared in the template.")
+    add_arguments(parser)
+    command(parser.parse_args(argv))
 
 
 if __name__ == "__main__":

@@ -4,8 +4,8 @@ Variables are registered from the template (interface.py), so the
 modelDescription and the slave cannot drift. pythonfmu 0.7.0 turns every
 Python exception into fmi2Fatal (and a fatal instance may take the host down
 on its next call), so nothing here raises into the host. Refused input is
-logged with status error and flagged to the FMU's status shim (shim/), which
-makes that FMI call answer fmi2Error; the state is left unchanged. A step the
+reported to the FMU's front binary (shim/), which makes that FMI call answer
+fmi2Error and logs the message; the state is left unchanged. A step the
 model cannot complete answers fmi2Discard. The FMU's entry script subclasses
 `PendulumSlave` (see femp_slave_entry.py).
 """
@@ -25,9 +25,9 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variabil
 from pythonfmu.variables import Boolean, Integer, Real, String
 
 from . import interface as fmi_interface
-from .models import StepFailed, create
-from .models.base import ModelState
-from .scene import Scene
+from ..physics.models import StepFailed, create
+from ..physics.protocol import ModelState
+from ..physics.scene import Scene
 
 LOG = logging.getLogger("fem_pendulum_fmu")
 
@@ -44,16 +44,17 @@ _PY_TYPES = {"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean"
 _TIME_TOL = 1e-9
 
 
-_FLAGS: dict = {}
+_REPORTERS: dict = {}
 
 
-def _error_flag(resources: str | None):
-    """fem_pendulum_flag_error of the FMU's status shim (binaries/linux64/FemPendulum.so), if present.
+def _error_reporter(resources: str | None):
+    """fem_pendulum_report_error of the FMU's front binary (binaries/linux64/FemPendulum.so), if present.
 
-    pythonfmu alone can only answer OK, Discard or Fatal; the shim in front of
-    it turns the call that this flag marks into fmi2Error."""
-    if resources not in _FLAGS:
-        _FLAGS[resources] = None
+    pythonfmu alone can only answer OK, Discard or Fatal; the front binary (shim/)
+    turns the call during which the slave reports an error into fmi2Error and
+    logs the message whether or not debug logging is on."""
+    if resources not in _REPORTERS:
+        _REPORTERS[resources] = None
         if resources:
             import ctypes
             from pathlib import Path
@@ -61,10 +62,12 @@ def _error_flag(resources: str | None):
             binary = Path(resources).parent / "binaries" / "linux64" / "FemPendulum.so"
             if binary.is_file():
                 try:
-                    _FLAGS[resources] = ctypes.CDLL(str(binary)).fem_pendulum_flag_error
+                    report = ctypes.CDLL(str(binary)).fem_pendulum_report_error
+                    report.argtypes = [ctypes.c_char_p]
+                    _REPORTERS[resources] = report
                 except (OSError, AttributeError):
                     pass
-    return _FLAGS[resources]
+    return _REPORTERS[resources]
 
 
 class _FmiLogHandler(logging.Handler):
@@ -134,7 +137,7 @@ class PendulumSlave(Fmi2Slave):
 
     # ----------------------------------------------------------------- setters
     def _set_parameter(self, name: str, value: Any) -> None:
-        if self.initialised:
+        if self.initialised and value != self.values[name]:
             self._error(f"parameter {name} cannot be set after initialisation (value {value!r} ignored; "
                         f"it stays {self.values[name]!r})")
             return
@@ -144,11 +147,12 @@ class PendulumSlave(Fmi2Slave):
         self.torque = float(value)  # checked at doStep, which then answers fmi2Error and keeps the state
 
     def _error(self, msg: str) -> None:
-        """Log with status error and make the FMI call in progress answer fmi2Error (see shim/)."""
-        self.log(msg, Fmi2Status.error)
-        flag = _error_flag(self.resources)
-        if flag is not None:
-            flag()
+        """Make the FMI call in progress answer fmi2Error and log `msg` with status error (see shim/)."""
+        report = _error_reporter(self.resources)
+        if report is not None:
+            report(msg.encode("utf-8", "replace"))
+        else:
+            self.log(msg, Fmi2Status.error)
 
     # ------------------------------------------------- guarded variable access
     # pythonfmu raises (fmi2Fatal) on an unknown value reference, a variable of another type or
@@ -197,13 +201,14 @@ class PendulumSlave(Fmi2Slave):
             super().set_string(vrs, values)
 
     # -------------------------------------------------------------- life cycle
-    def scene(self) -> Scene:
-        """The scene the parameter values describe (enumerations mapped to their item names)."""
+    def scene(self, parameters: dict[str, Any] | None = None) -> Scene:
+        """The scene the parameter values (this instance's, or `parameters`) describe, enumerations by item name."""
+        parameters = self.values if parameters is None else parameters
         values = {}
         for var in self.interface.of_causality("parameter"):
             if var.name in ENUM_ALIASES:
                 continue
-            value = self.values[var.name]
+            value = parameters[var.name]
             if var.items:
                 value = var.item_name(value)
             elif var.type == "Real":
@@ -214,15 +219,18 @@ class PendulumSlave(Fmi2Slave):
                 value = bool(value)
             values[var.name] = value
         for alias, target in ENUM_ALIASES.items():
-            index = int(self.values[alias])
+            index = int(parameters[alias])
             if index != 0:
                 values[target] = self.interface.by_name(target).item_name(index)
         return Scene().with_values(values)
 
     def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None):
-        self.time = float(start_time)
+        if self.model is None:  # an instance started from an FMU state keeps the state's time
+            self.time = float(start_time)
 
     def exit_initialization_mode(self):
+        if self.model is not None:  # started from an FMU state (fmi2SetFMUstate after fmi2Instantiate)
+            return
         t0 = time.perf_counter()
         self.initialised = True
         with self._logging():
@@ -291,27 +299,39 @@ class PendulumSlave(Fmi2Slave):
                 "values": dict(self.values), "initialised": self.initialised}
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
-        """Restore a state of this FMU taken with the same parameters; anything else is refused
-        (fmi2Error, state unchanged), never raised: an exception would be fmi2Fatal."""
+        """Restore a state of this FMU; anything else is refused (fmi2Error, state unchanged), never
+        raised: an exception would be fmi2Fatal. Into an initialised instance only a state taken with
+        the same parameters; into one not yet initialised any state of this FMU, whose parameters
+        then build the model (the initialisation calls that follow keep it)."""
         problem = state.get("error") or self._state_mismatch(state)
+        model = self.model
         if problem is None and state["model"] is not None:
             try:
-                self.model.set_state(state["model"].copy())
-            except Exception as exc:  # a state of another fidelity or mesh: set_state checks and raises
+                if model is None:
+                    with self._logging():
+                        model = create(self.scene(state["values"]))
+                model.set_state(state["model"].copy())
+            except Exception as exc:  # invalid parameters, a state of another fidelity or mesh
                 problem = f"{type(exc).__name__}: {exc}"
         if problem is not None:
             self._error(f"FMU state not restored, the state is unchanged: {problem}")
             return
+        if self.model is None:
+            self.values = dict(state["values"])
         if state["model"] is not None:
-            self.outputs = self.model.outputs()
-            self.broken = None
+            if self.model is None:
+                self.initialised, self.time = True, model.time
+            self.model, self.outputs, self.broken = model, model.outputs(), None
         self.torque = float(state["torque"])
 
     def _state_mismatch(self, state: dict[str, Any]) -> str | None:
         """Why `state` cannot be restored in this instance, or None."""
-        if (state["model"] is None) != (self.model is None):
-            return (f"it was taken {'before' if state['model'] is None else 'after'} initialisation and this "
-                    f"instance is {'not ' if self.model is None else ''}initialised")
+        if set(state["values"]) != set(self.values):
+            return "it is not a state of this FMU (its parameters have other names)"
+        if state["model"] is None and self.model is not None:
+            return "it was taken before initialisation and this instance is initialised"
+        if self.model is None:
+            return None
         for name, value in state["values"].items():
             if self.values.get(name) != value:
                 return (f"it was taken with parameter {name} = {value!r}, this instance has "

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from ..scene import Scene, validate
-from .base import ModelState, Outputs, PendulumModel, StepFailed
+from ..protocol import ModelState, Outputs, PendulumModel, StepFailed
 
 AVAILABLE = ("rigid", "reduced", "fem")
 

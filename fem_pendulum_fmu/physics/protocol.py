@@ -13,7 +13,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from ..scene import Scene
+from .scene import Scene
 
 
 class StepFailed(RuntimeError):

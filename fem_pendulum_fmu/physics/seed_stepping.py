@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 
-from .models.base import StepFailed
+from .protocol import StepFailed
 from .stepping import AdvanceResult, StepControl
 
 GAP_RULE = ((1e-3, 1e-4), (5e-3, 5e-4), (1e-2, 1e-3))  # (gap below, step), the seed's thresholds

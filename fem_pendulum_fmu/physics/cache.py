@@ -21,7 +21,7 @@ import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
-from . import __version__
+from .. import __version__
 
 LOG = logging.getLogger("fem_pendulum_fmu")
 ENV = "FEM_PENDULUM_CACHE"

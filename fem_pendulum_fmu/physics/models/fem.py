@@ -32,7 +32,7 @@ from ..geometry import make_mesh
 from ..scene import Scene, validate
 from .. import seed_stepping
 from ..stepping import StepControl, advance as advance_steps
-from .base import ModelState, Outputs, StepFailed, check_advance_args
+from ..protocol import ModelState, Outputs, StepFailed, check_advance_args
 
 NEWTON_MAX_IT = 12
 DEFORMABLE_WALL_FACE_SIZE = 0.005  # m; contact zone on the wall face is ~5 mm wide

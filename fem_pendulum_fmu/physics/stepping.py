@@ -30,7 +30,7 @@ import math
 from dataclasses import dataclass
 from typing import Generic, Protocol, TypeVar
 
-from .models.base import Outputs, StepFailed, check_advance_args
+from .protocol import Outputs, StepFailed, check_advance_args
 
 X = TypeVar("X")
 

@@ -33,7 +33,7 @@ import numpy as np
 from ..modes import ModalBasis, modal_basis
 from ..scene import Scene, validate
 from ..stepping import StepControl, SteppedModel
-from .base import ModelState, Outputs
+from ..protocol import ModelState, Outputs
 from .fem import contact_time_scale
 
 NEWTON_MAX_IT = 40

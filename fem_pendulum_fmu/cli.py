@@ -1,0 +1,62 @@
+"""The one command line: fem-pendulum build | run | control | host-env | interface.
+
+Each subcommand is a thin call into the package: the FMU builder (fmi/builder.py
+and masters/pid), the open-loop and controller masters (masters/), the host
+environment and the interface table (fmi/).
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from . import __version__
+
+
+def build(args: argparse.Namespace) -> None:
+    """Build FemPendulum.fmu (and PidController.fmu beside it) and print their paths."""
+    from .fmi.builder import build_pendulum, validate
+
+    print(build_pendulum(args.output))
+    if not args.no_controller:
+        from .masters.pid.build import build_pid_fmu
+
+        print(validate(build_pid_fmu(args.output.resolve().parent / "PidController.fmu")))
+
+
+def add_build_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--output", type=Path, default=Path("dist") / "FemPendulum.fmu",
+                        help="where to write FemPendulum.fmu (default dist/FemPendulum.fmu)")
+    parser.add_argument("--no-controller", action="store_true", help="do not build PidController.fmu")
+
+
+def parser() -> argparse.ArgumentParser:
+    from .fmi import host_env, interface
+    from .masters import controller_loop, open_loop
+
+    top = argparse.ArgumentParser(prog="fem-pendulum", description=__doc__,
+                                  formatter_class=argparse.RawDescriptionHelpFormatter)
+    top.add_argument("--version", action="version", version=f"fem_pendulum_fmu {__version__}")
+    sub = top.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    verbs = (("build", "build the FMUs", add_build_arguments, build),
+             ("run", "open loop: a torque profile through the FMU, CSV and plot",
+              open_loop.add_arguments, open_loop.command),
+             ("control", "a PID controller FMU in the loop, CSV and plot",
+              controller_loop.add_arguments, controller_loop.command),
+             ("host-env", "print the environment variables that point a native host's FMU at this Python",
+              lambda p: None, lambda a: host_env.main()),
+             ("interface", "print the FMI interface declared in modelDescription.template.xml",
+              interface.add_arguments, interface.command))
+    for name, help_text, add_arguments, run in verbs:
+        verb = sub.add_parser(name, help=help_text, description=help_text)
+        add_arguments(verb)
+        verb.set_defaults(run=run)
+    return top
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = parser().parse_args(argv)
+    args.run(args)
+
+
+if __name__ == "__main__":
+    main()

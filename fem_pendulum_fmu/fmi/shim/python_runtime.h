@@ -1,0 +1,12 @@
+/* The Python an FMU of this project runs in: the host's, or one the FMU loads itself (python_runtime.c). */
+#ifndef FEM_PENDULUM_PYTHON_RUNTIME_H
+#define FEM_PENDULUM_PYTHON_RUNTIME_H
+
+#include <stddef.h>
+
+/* Makes sure an initialised Python is in the process, then runs resources/femp_preflight.py's
+ * prepare(resources). Returns 0 when the FMU can be instantiated; otherwise 1 with the reason,
+ * written for the user, in `why` (n bytes). */
+int python_prepare(const char *resources, char *why, size_t n);
+
+#endif
