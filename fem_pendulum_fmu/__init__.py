@@ -3,4 +3,5 @@
 The physics (scene, models, stepping) knows nothing of FMI; `slave` and
 `build_fmu.py` wrap it. Start with `fem_pendulum_fmu.physics.models.create(scene)`.
 """
+
 __version__ = "0.1.0"

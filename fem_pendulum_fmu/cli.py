@@ -4,6 +4,7 @@ Each subcommand is a thin call into the package: the FMU builder (fmi/builder.py
 and masters/pid), the open-loop and controller masters (masters/), the host
 environment and the interface table (fmi/).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -24,8 +25,12 @@ def build(args: argparse.Namespace) -> None:
 
 
 def add_build_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--output", type=Path, default=Path("dist") / "FemPendulum.fmu",
-                        help="where to write FemPendulum.fmu (default dist/FemPendulum.fmu)")
+    parser.add_argument(
+        "--output",
+        type=Path,
+        default=Path("dist") / "FemPendulum.fmu",
+        help="where to write FemPendulum.fmu (default dist/FemPendulum.fmu)",
+    )
     parser.add_argument("--no-controller", action="store_true", help="do not build PidController.fmu")
 
 
@@ -33,19 +38,38 @@ def parser() -> argparse.ArgumentParser:
     from .fmi import host_env, interface
     from .masters import controller_loop, open_loop
 
-    top = argparse.ArgumentParser(prog="fem-pendulum", description=__doc__,
-                                  formatter_class=argparse.RawDescriptionHelpFormatter)
+    top = argparse.ArgumentParser(
+        prog="fem-pendulum", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     top.add_argument("--version", action="version", version=f"fem_pendulum_fmu {__version__}")
     sub = top.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    verbs = (("build", "build the FMUs", add_build_arguments, build),
-             ("run", "open loop: a torque profile through the FMU, CSV and plot",
-              open_loop.add_arguments, open_loop.command),
-             ("control", "a PID controller FMU in the loop, CSV and plot",
-              controller_loop.add_arguments, controller_loop.command),
-             ("host-env", "print the environment variables that point a native host's FMU at this Python",
-              lambda p: None, lambda a: host_env.main()),
-             ("interface", "print the FMI interface declared in modelDescription.template.xml",
-              interface.add_arguments, interface.command))
+    verbs = (
+        ("build", "build the FMUs", add_build_arguments, build),
+        (
+            "run",
+            "open loop: a torque profile through the FMU, CSV and plot",
+            open_loop.add_arguments,
+            open_loop.command,
+        ),
+        (
+            "control",
+            "a PID controller FMU in the loop, CSV and plot",
+            controller_loop.add_arguments,
+            controller_loop.command,
+        ),
+        (
+            "host-env",
+            "print the environment variables that point a native host's FMU at this Python",
+            lambda p: None,
+            lambda a: host_env.main(),
+        ),
+        (
+            "interface",
+            "print the FMI interface declared in modelDescription.template.xml",
+            interface.add_arguments,
+            interface.command,
+        ),
+    )
     for name, help_text, add_arguments, run in verbs:
         verb = sub.add_parser(name, help=help_text, description=help_text)
         add_arguments(verb)

@@ -8,6 +8,7 @@ shim reads: the interpreter to start in a host without Python
 (python_environment.txt), the packages to check (requirements.txt) and the
 check itself (femp_preflight.py). Every FMU must pass fmpy's validation.
 """
+
 from __future__ import annotations
 
 import datetime
@@ -60,9 +61,25 @@ def compile_shim(output: Path) -> bool:
     if not sys.platform.startswith("linux") or compiler is None or not (include / "Python.h").is_file():
         return False
     sources = [str(FMI_DIR / "shim" / name) for name in SHIM_SOURCES]
-    subprocess.run([compiler, "-shared", "-fPIC", "-O2", "-Wall", f"-I{Path(fmpy.__file__).parent / 'c-code'}",
-                    f"-I{include}", f"-I{FMI_DIR / 'shim'}", *sources, "-ldl", "-lpthread", "-Wl,-z,defs",
-                    "-o", str(output)], check=True)
+    subprocess.run(
+        [
+            compiler,
+            "-shared",
+            "-fPIC",
+            "-O2",
+            "-Wall",
+            f"-I{Path(fmpy.__file__).parent / 'c-code'}",
+            f"-I{include}",
+            f"-I{FMI_DIR / 'shim'}",
+            *sources,
+            "-ldl",
+            "-lpthread",
+            "-Wl,-z,defs",
+            "-o",
+            str(output),
+        ],
+        check=True,
+    )
     return True
 
 
@@ -74,12 +91,14 @@ def finish_fmu(fmu: Path, model_identifier: str, model_description: str, resourc
         shim = Path(tmp) / "shim.so"
         has_shim = compile_shim(shim)
         if not has_shim:
-            print(f"{fmu.name}: no C compiler or Python headers; the FMU has pythonfmu's binary alone "
-                  "(no fmi2Error, no Python for native hosts, and pythonfmu's crash at exit; docs/fmu.md)")
+            print(
+                f"{fmu.name}: no C compiler or Python headers; the FMU has pythonfmu's binary alone "
+                "(no fmi2Error, no Python for native hosts, and pythonfmu's crash at exit; docs/fmu.md)"
+            )
         staged = fmu.with_suffix(".tmp")
         with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(staged, "w", zipfile.ZIP_DEFLATED) as dst:
             for item in src.infolist():
-                if item.filename == "modelDescription.xml" or item.filename[len("resources/"):] in resources:
+                if item.filename == "modelDescription.xml" or item.filename[len("resources/") :] in resources:
                     continue
                 data = src.read(item.filename)
                 if item.filename == binary and has_shim:
@@ -95,8 +114,11 @@ def finish_fmu(fmu: Path, model_identifier: str, model_description: str, resourc
 
 def shim_resources(requirements: tuple[str, ...]) -> dict[str, str]:
     """The resources files the front binary reads."""
-    return {"python_environment.txt": python_environment_txt(), "requirements.txt": requirements_txt(requirements),
-            "femp_preflight.py": (FMI_DIR / "preflight.py").read_text()}
+    return {
+        "python_environment.txt": python_environment_txt(),
+        "requirements.txt": requirements_txt(requirements),
+        "femp_preflight.py": (FMI_DIR / "preflight.py").read_text(),
+    }
 
 
 def validate(fmu: Path) -> Path:
@@ -132,8 +154,11 @@ def build_pendulum(output: Path) -> Path:
         stage_package(tmp_path / "fem_pendulum_fmu")
         entry = tmp_path / "femp_slave_entry.py"
         shutil.copy2(FMI_DIR / "femp_slave_entry.py", entry)
-        built = Path(FmuBuilder.build_FMU(entry, dest=output,
-                                          project_files=[tmp_path / "fem_pendulum_fmu", tmp_path / TEMPLATE_NAME]))
+        built = Path(
+            FmuBuilder.build_FMU(
+                entry, dest=output, project_files=[tmp_path / "fem_pendulum_fmu", tmp_path / TEMPLATE_NAME]
+            )
+        )
     if built.resolve() != output:
         shutil.move(str(built), output)
     finish_fmu(output, "FemPendulum", xml, shim_resources(PENDULUM_REQUIREMENTS))

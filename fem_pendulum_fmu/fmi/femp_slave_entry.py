@@ -5,6 +5,7 @@ function defined here references them (through its __globals__), they are
 released after the first instance and a second instance in the same process
 fails to find its class. Hence the explicit __init__ below.
 """
+
 import fem_pendulum_fmu.fmi.slave as _slave
 
 

@@ -9,6 +9,7 @@ prints both for the environment it runs in:
 
     eval "$(fem-pendulum host-env)"
 """
+
 from __future__ import annotations
 
 import sys

@@ -4,6 +4,7 @@ The slave registers its variables from it, build_fmu.py renders it into the
 FMU's modelDescription.xml, and `python -m fem_pendulum_fmu.fmi.interface
 --markdown` prints the README's variable table from it.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -71,7 +72,7 @@ def template_path(resources: str | os.PathLike | None = None) -> Path:
     raise FileNotFoundError(f"{TEMPLATE_NAME} not found; looked in: {', '.join(map(str, candidates))}")
 
 
-def _start(typ: str, text: str | None):
+def _start(typ: str, text: str | None) -> float | int | bool | None:
     if text is None:
         return None
     if typ == "Real":
@@ -81,31 +82,62 @@ def _start(typ: str, text: str | None):
     return int(text)
 
 
+def _attribute(element: ET.Element, name: str) -> str:
+    """A required attribute of a template element; ValueError naming it when it is missing."""
+    value = element.get(name)
+    if value is None:
+        raise ValueError(f"{TEMPLATE_NAME}: <{element.tag}> has no attribute {name}")
+    return value
+
+
+def _child(element: ET.Element, tag: str) -> ET.Element:
+    """A required child of a template element; ValueError naming it when it is missing."""
+    child = element.find(tag)
+    if child is None:
+        raise ValueError(f"{TEMPLATE_NAME}: <{element.tag}> has no <{tag}>")
+    return child
+
+
 @lru_cache(maxsize=8)
 def _parse(path: str) -> Interface:
     root = ET.parse(path).getroot()
-    enums = {}
+    enums: dict[str | None, tuple[str, ...]] = {}
     for st in root.iter("SimpleType"):
         en = st.find("Enumeration")
         if en is not None:
-            items = sorted(en.findall("Item"), key=lambda it: int(it.get("value")))
-            enums[st.get("name")] = tuple(it.get("name") for it in items)
+            items = sorted(en.findall("Item"), key=lambda it: int(_attribute(it, "value")))
+            enums[st.get("name")] = tuple(_attribute(it, "name") for it in items)
     variables = []
-    for sv in root.find("ModelVariables").findall("ScalarVariable"):
+    for sv in _child(root, "ModelVariables").findall("ScalarVariable"):
         (typed,) = list(sv)
         declared = typed.get("declaredType")
-        variables.append(Variable(
-            name=sv.get("name"), value_reference=int(sv.get("valueReference")), type=typed.tag,
-            causality=sv.get("causality", "local"), variability=sv.get("variability", "continuous"),
-            description=sv.get("description", ""), start=_start(typed.tag, typed.get("start")),
-            unit=typed.get("unit"), display_unit=typed.get("displayUnit"), declared_type=declared,
-            items=enums.get(declared, ())))
-    de = root.find("DefaultExperiment")
-    return Interface(root.find("CoSimulation").get("modelIdentifier"), tuple(variables),
-                     float(de.get("startTime")), float(de.get("stopTime")), float(de.get("stepSize")))
+        variables.append(
+            Variable(
+                name=_attribute(sv, "name"),
+                value_reference=int(_attribute(sv, "valueReference")),
+                type=typed.tag,
+                causality=sv.get("causality", "local"),
+                variability=sv.get("variability", "continuous"),
+                description=sv.get("description", ""),
+                start=_start(typed.tag, typed.get("start")),
+                unit=typed.get("unit"),
+                display_unit=typed.get("displayUnit"),
+                declared_type=declared,
+                items=enums.get(declared, ()),
+            )
+        )
+    de = _child(root, "DefaultExperiment")
+    return Interface(
+        _attribute(_child(root, "CoSimulation"), "modelIdentifier"),
+        tuple(variables),
+        float(_attribute(de, "startTime")),
+        float(_attribute(de, "stopTime")),
+        float(_attribute(de, "stepSize")),
+    )
 
 
 def load(resources: str | os.PathLike | None = None) -> Interface:
+    """The interface declared in the template (see template_path for where it is looked for)."""
     return _parse(str(template_path(resources)))
 
 
@@ -122,7 +154,12 @@ def markdown_table(interface: Interface | None = None) -> str:
     for v in interface.variables:
         unit = (v.unit or "") + (f" (display {v.display_unit})" if v.display_unit else "")
         typ = f"Enumeration ({', '.join(v.items)})" if v.items else v.type
-        start = "" if v.start is None else (v.items[v.start - 1] if v.items else f"{v.start:g}" if v.type == "Real" else str(v.start))
+        if v.start is None:
+            start = ""
+        elif v.items:
+            start = v.items[int(v.start) - 1]
+        else:
+            start = f"{v.start:g}" if v.type == "Real" else str(v.start)
         rows.append(f"| `{v.name}` | {v.causality} | {typ} | {unit} | {start} | {v.description} |")
     return "\n".join(rows)
 

@@ -12,6 +12,7 @@ missing. `prepare(resources)` does two things and returns the problems as text
   missing or too old package is named with the command that installs it,
   instead of failing later inside the physics.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -30,8 +31,12 @@ def prepare(resources: str) -> str:
     problems = requirement_problems(Path(resources) / "requirements.txt")
     if not problems:
         return ""
-    return (f"this Python ({sys.executable}) cannot run the FMU: " + "; ".join(problems) +
-            ". Install what the FMU needs into it with: " + install_command(Path(resources) / "requirements.txt"))
+    return (
+        f"this Python ({sys.executable}) cannot run the FMU: "
+        + "; ".join(problems)
+        + ". Install what the FMU needs into it with: "
+        + install_command(Path(resources) / "requirements.txt")
+    )
 
 
 def shipped_modules(resources: Path) -> set[str]:
@@ -44,8 +49,11 @@ def shipped_modules(resources: Path) -> set[str]:
 def forget_deleted_copies(resources: Path) -> list[str]:
     """Drop from sys.modules the shipped modules whose files no longer exist; returns their names."""
     shipped = shipped_modules(resources)
-    stale_tops = {name.partition(".")[0] for name, module in list(sys.modules.items())
-                  if name.partition(".")[0] in shipped and _file_is_gone(module)}
+    stale_tops = {
+        name.partition(".")[0]
+        for name, module in list(sys.modules.items())
+        if name.partition(".")[0] in shipped and _file_is_gone(module)
+    }
     dropped = [name for name in list(sys.modules) if name.partition(".")[0] in stale_tops]
     for name in dropped:
         del sys.modules[name]
@@ -57,7 +65,7 @@ def forget_deleted_copies(resources: Path) -> list[str]:
 
 def _file_is_gone(module: object) -> bool:
     file = getattr(module, "__file__", None)
-    return bool(file) and not os.path.exists(file)
+    return isinstance(file, str) and file != "" and not os.path.exists(file)
 
 
 def requirements(path: Path) -> list[tuple[str, tuple[int, ...] | None, str]]:
@@ -67,8 +75,7 @@ def requirements(path: Path) -> list[tuple[str, tuple[int, ...] | None, str]]:
         for line in path.read_text().splitlines():
             match = REQUIREMENT.match(line)
             if match and not line.lstrip().startswith("#"):
-                found.append((match.group(1), _version_tuple(match.group(2)) if match.group(2) else None,
-                              line.strip()))
+                found.append((match.group(1), _version_tuple(match.group(2)) if match.group(2) else None, line.strip()))
     return found
 
 

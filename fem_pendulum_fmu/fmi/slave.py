@@ -9,34 +9,46 @@ fmi2Error and logs the message; the state is left unchanged. A step the
 model cannot complete answers fmi2Discard. The FMU's entry script subclasses
 `PendulumSlave` (see femp_slave_entry.py).
 """
+
 from __future__ import annotations
 
+import functools
 import io
 import json
 import logging
 import math
 import time
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, Protocol, cast
 
 import numpy as np
 from pythonfmu import Fmi2Slave
 from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability
-from pythonfmu.variables import Boolean, Integer, Real, String
+from pythonfmu.variables import Boolean, Integer, Real, ScalarVariable, String
 
-from . import interface as fmi_interface
-from ..physics.models import StepFailed, create
-from ..physics.protocol import ModelState
+from ..physics.models import PendulumModel, StepFailed, create
+from ..physics.protocol import ModelState, Outputs
 from ..physics.scene import Scene
+from . import interface as fmi_interface
 
 LOG = logging.getLogger("fem_pendulum_fmu")
 
 # FMI output name -> models.base.Outputs field
 OUTPUT_FIELDS = {
-    "theta": "theta", "omega": "omega", "gap": "gap", "contact_force": "contact_force",
-    "energy.kinetic": "kinetic", "energy.potential": "potential", "energy.strain": "strain",
-    "energy.contact": "contact", "energy.total": "total", "energy.torque_work": "torque_work",
-    "stress.von_mises_max": "von_mises_max", "solver.substeps": "substeps", "gap_min": "min_gap",
+    "theta": "theta",
+    "omega": "omega",
+    "gap": "gap",
+    "contact_force": "contact_force",
+    "energy.kinetic": "kinetic",
+    "energy.potential": "potential",
+    "energy.strain": "strain",
+    "energy.contact": "contact",
+    "energy.total": "total",
+    "energy.torque_work": "torque_work",
+    "stress.von_mises_max": "von_mises_max",
+    "solver.substeps": "substeps",
+    "gap_min": "min_gap",
 }
 # Integer aliases of enumerations for masters that cannot set enumerations (libcosim)
 ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}
@@ -44,10 +56,10 @@ _PY_TYPES = {"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean"
 _TIME_TOL = 1e-9
 
 
-_REPORTERS: dict = {}
+_REPORTERS: dict[str | None, Callable[[bytes], Any] | None] = {}
 
 
-def _error_reporter(resources: str | None):
+def _error_reporter(resources: str | None) -> Callable[[bytes], Any] | None:
     """fem_pendulum_report_error of the FMU's front binary (binaries/linux64/FemPendulum.so), if present.
 
     pythonfmu alone can only answer OK, Discard or Fatal; the front binary (shim/)
@@ -70,10 +82,20 @@ def _error_reporter(resources: str | None):
     return _REPORTERS[resources]
 
 
+class _Model(PendulumModel, Protocol):
+    """What the slave needs of a model: the protocol and the current time, which every fidelity has."""
+
+    time: float
+
+
+def _create(scene: Scene) -> _Model:
+    return cast(_Model, create(scene))
+
+
 class _FmiLogHandler(logging.Handler):
     """Forwards the package's Python log records to one instance's FMI logger."""
 
-    def __init__(self, slave: "PendulumSlave"):
+    def __init__(self, slave: PendulumSlave) -> None:
         super().__init__(logging.DEBUG)
         self.slave = slave
 
@@ -91,13 +113,13 @@ class PendulumSlave(Fmi2Slave):
     author = "fem_pendulum_fmu developers"
     description = "Nonlinear FE pendulum hitting a wall"
 
-    def __init__(self, **kwargs: Any):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.interface = fmi_interface.load(self.resources)
         self.values: dict[str, Any] = {}
         self.torque = 0.0
-        self.model = None
-        self.outputs = None
+        self.model: _Model | None = None
+        self.outputs: Outputs | None = None
         self.init_error: str | None = None
         self.broken: str | None = None  # set when the model raised something other than StepFailed
         self.initialised = False
@@ -111,21 +133,27 @@ class PendulumSlave(Fmi2Slave):
     # ------------------------------------------------------------ registration
     def _register(self, var: fmi_interface.Variable) -> None:
         name = var.name
+        getter: Callable[[], Any]
+        setter: Callable[[Any], None] | None
         if var.causality == "parameter":
             self.values[name] = var.start
-            getter = lambda n=name: self.values[n]  # noqa: E731
-            setter = lambda value, n=name: self._set_parameter(n, value)  # noqa: E731
+            getter = functools.partial(self._get_parameter, name)
+            setter = functools.partial(self._set_parameter, name)
         elif var.causality == "input":
             self.torque = float(var.start or 0.0)
-            getter = lambda: self.torque  # noqa: E731
+            getter = self._get_torque
             setter = self._set_torque
         else:
-            field = OUTPUT_FIELDS[name]
-            getter = lambda f=field: getattr(self.outputs, f) if self.outputs is not None else 0  # noqa: E731
+            getter = functools.partial(self._get_output, OUTPUT_FIELDS[name])
             setter = None
         cls = _PY_TYPES[var.type]
-        kwargs = dict(causality=Fmi2Causality[var.causality], variability=Fmi2Variability[var.variability],
-                      description=var.description, getter=getter, setter=setter)
+        kwargs = dict(
+            causality=Fmi2Causality[var.causality],
+            variability=Fmi2Variability[var.variability],
+            description=var.description,
+            getter=getter,
+            setter=setter,
+        )
         if var.causality == "parameter":
             kwargs["initial"] = Fmi2Initial.exact
         if var.start is not None:
@@ -135,11 +163,22 @@ class PendulumSlave(Fmi2Slave):
         if registered != var.value_reference:
             raise RuntimeError(f"value reference of {name} is {registered}, the template says {var.value_reference}")
 
-    # ----------------------------------------------------------------- setters
+    # ------------------------------------------------------- getters and setters
+    def _get_parameter(self, name: str) -> Any:
+        return self.values[name]  # looked up at each call: restoring an FMU state replaces self.values
+
+    def _get_torque(self) -> float:
+        return self.torque
+
+    def _get_output(self, field: str) -> Any:
+        return getattr(self.outputs, field) if self.outputs is not None else 0
+
     def _set_parameter(self, name: str, value: Any) -> None:
         if self.initialised and value != self.values[name]:
-            self._error(f"parameter {name} cannot be set after initialisation (value {value!r} ignored; "
-                        f"it stays {self.values[name]!r})")
+            self._error(
+                f"parameter {name} cannot be set after initialisation (value {value!r} ignored; "
+                f"it stays {self.values[name]!r})"
+            )
             return
         self.values[name] = value
 
@@ -157,46 +196,60 @@ class PendulumSlave(Fmi2Slave):
     # ------------------------------------------------- guarded variable access
     # pythonfmu raises (fmi2Fatal) on an unknown value reference, a variable of another type or
     # setting an output; these answer fmi2Error with a log message instead and change nothing.
-    def _variables(self, vrs, kind, call: str, setting: bool = False):
+    def _variables(
+        self, vrs: list[int], kind: type[ScalarVariable], call: str, setting: bool = False
+    ) -> list[int] | None:
         """The variables for `vrs`, or None after flagging an error naming the first bad reference."""
         for vr in vrs:
             var = self.vars.get(vr)
             if not isinstance(var, kind):
                 what = "no variable of this FMU" if var is None else f"{var.name}, not of type {kind.__name__}"
-                self._error(f"{call} refused: value reference {vr} is {what} (value references are 0 to "
-                            f"{len(self.vars) - 1}, see modelDescription.xml); nothing was changed")
+                self._error(
+                    f"{call} refused: value reference {vr} is {what} (value references are 0 to "
+                    f"{len(self.vars) - 1}, see modelDescription.xml); nothing was changed"
+                )
                 return None
             if setting and var.setter is None:
-                self._error(f"{call} refused: {var.name} (value reference {vr}) is an {var.causality.name} and "
-                            "cannot be set; nothing was changed")
+                self._error(
+                    f"{call} refused: {var.name} (value reference {vr}) is an {var.causality.name} and "
+                    "cannot be set; nothing was changed"
+                )
                 return None
         return vrs
 
-    def get_real(self, vrs):
-        return super().get_real(vrs) if self._variables(vrs, Real, "fmi2GetReal") is not None else [0.0] * len(vrs)
+    def get_real(self, vrs: list[int]) -> list[float]:
+        if self._variables(vrs, Real, "fmi2GetReal") is None:
+            return [0.0] * len(vrs)
+        return super().get_real(vrs)
 
-    def get_integer(self, vrs):
-        return super().get_integer(vrs) if self._variables(vrs, Integer, "fmi2GetInteger") is not None else [0] * len(vrs)
+    def get_integer(self, vrs: list[int]) -> list[int]:
+        if self._variables(vrs, Integer, "fmi2GetInteger") is None:
+            return [0] * len(vrs)
+        return super().get_integer(vrs)
 
-    def get_boolean(self, vrs):
-        return super().get_boolean(vrs) if self._variables(vrs, Boolean, "fmi2GetBoolean") is not None else [False] * len(vrs)
+    def get_boolean(self, vrs: list[int]) -> list[bool]:
+        if self._variables(vrs, Boolean, "fmi2GetBoolean") is None:
+            return [False] * len(vrs)
+        return super().get_boolean(vrs)
 
-    def get_string(self, vrs):
-        return super().get_string(vrs) if self._variables(vrs, String, "fmi2GetString") is not None else [""] * len(vrs)
+    def get_string(self, vrs: list[int]) -> list[str]:
+        if self._variables(vrs, String, "fmi2GetString") is None:
+            return [""] * len(vrs)
+        return super().get_string(vrs)
 
-    def set_real(self, vrs, values):
+    def set_real(self, vrs: list[int], values: list[float]) -> None:
         if self._variables(vrs, Real, "fmi2SetReal", setting=True) is not None:
             super().set_real(vrs, values)
 
-    def set_integer(self, vrs, values):
+    def set_integer(self, vrs: list[int], values: list[int]) -> None:
         if self._variables(vrs, Integer, "fmi2SetInteger", setting=True) is not None:
             super().set_integer(vrs, values)
 
-    def set_boolean(self, vrs, values):
+    def set_boolean(self, vrs: list[int], values: list[bool]) -> None:
         if self._variables(vrs, Boolean, "fmi2SetBoolean", setting=True) is not None:
             super().set_boolean(vrs, values)
 
-    def set_string(self, vrs, values):
+    def set_string(self, vrs: list[int], values: list[str]) -> None:
         if self._variables(vrs, String, "fmi2SetString", setting=True) is not None:
             super().set_string(vrs, values)
 
@@ -224,18 +277,18 @@ class PendulumSlave(Fmi2Slave):
                 values[target] = self.interface.by_name(target).item_name(index)
         return Scene().with_values(values)
 
-    def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None):
+    def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
         if self.model is None:  # an instance started from an FMU state keeps the state's time
             self.time = float(start_time)
 
-    def exit_initialization_mode(self):
+    def exit_initialization_mode(self) -> None:
         if self.model is not None:  # started from an FMU state (fmi2SetFMUstate after fmi2Instantiate)
             return
         t0 = time.perf_counter()
         self.initialised = True
         with self._logging():
             try:
-                self.model = create(self.scene())
+                self.model = _create(self.scene())
             except (ValueError, KeyError) as exc:
                 self.init_error = f"invalid parameters: {exc}"
                 self._error(self.init_error)
@@ -259,8 +312,10 @@ class PendulumSlave(Fmi2Slave):
             self._error(f"doStep refused: communication step size {step_size!r} must be a finite number > 0")
             return False
         if abs(current_time - self.model.time) > _TIME_TOL * max(1.0, abs(current_time)):
-            self._error(f"doStep refused: communication point {current_time!r} does not match the FMU's time "
-                        f"{self.model.time!r}")
+            self._error(
+                f"doStep refused: communication point {current_time!r} does not match the FMU's time "
+                f"{self.model.time!r}"
+            )
             return False
         if not math.isfinite(self.torque):
             self._error(f"doStep refused: torque = {self.torque!r} is not allowed, it must be a finite number (N.m)")
@@ -279,11 +334,11 @@ class PendulumSlave(Fmi2Slave):
                 return False
         return True
 
-    def terminate(self):
+    def terminate(self) -> None:
         self.terminated = True
 
     @contextmanager
-    def _logging(self):
+    def _logging(self) -> Iterator[None]:
         """Route the package's log records to this instance's FMI logger while it runs the model."""
         LOG.addHandler(self._handler)
         if LOG.level == logging.NOTSET or LOG.level > logging.DEBUG:
@@ -295,8 +350,12 @@ class PendulumSlave(Fmi2Slave):
 
     # ---------------------------------------------------------------- FMU state
     def _get_fmu_state(self) -> dict[str, Any]:
-        return {"model": self.model.get_state() if self.model is not None else None, "torque": self.torque,
-                "values": dict(self.values), "initialised": self.initialised}
+        return {
+            "model": self.model.get_state() if self.model is not None else None,
+            "torque": self.torque,
+            "values": dict(self.values),
+            "initialised": self.initialised,
+        }
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
         """Restore a state of this FMU; anything else is refused (fmi2Error, state unchanged), never
@@ -309,7 +368,7 @@ class PendulumSlave(Fmi2Slave):
             try:
                 if model is None:
                     with self._logging():
-                        model = create(self.scene(state["values"]))
+                        model = _create(self.scene(state["values"]))
                 model.set_state(state["model"].copy())
             except Exception as exc:  # invalid parameters, a state of another fidelity or mesh
                 problem = f"{type(exc).__name__}: {exc}"
@@ -318,7 +377,7 @@ class PendulumSlave(Fmi2Slave):
             return
         if self.model is None:
             self.values = dict(state["values"])
-        if state["model"] is not None:
+        if state["model"] is not None and model is not None:  # model is None only if state["model"] is
             if self.model is None:
                 self.initialised, self.time = True, model.time
             self.model, self.outputs, self.broken = model, model.outputs(), None
@@ -334,8 +393,7 @@ class PendulumSlave(Fmi2Slave):
             return None
         for name, value in state["values"].items():
             if self.values.get(name) != value:
-                return (f"it was taken with parameter {name} = {value!r}, this instance has "
-                        f"{self.values.get(name)!r}")
+                return f"it was taken with parameter {name} = {value!r}, this instance has {self.values.get(name)!r}"
         return None
 
     @staticmethod
@@ -343,8 +401,11 @@ class PendulumSlave(Fmi2Slave):
         head = {"torque": state["torque"], "values": state["values"], "initialised": state["initialised"]}
         model = state["model"].to_bytes() if state["model"] is not None else b""
         buf = io.BytesIO()
-        np.savez(buf, head=np.frombuffer(json.dumps(head).encode(), dtype=np.uint8),
-                 model=np.frombuffer(model, dtype=np.uint8))
+        np.savez(
+            buf,
+            head=np.frombuffer(json.dumps(head).encode(), dtype=np.uint8),
+            model=np.frombuffer(model, dtype=np.uint8),
+        )
         return buf.getvalue()
 
     @staticmethod

@@ -8,6 +8,7 @@ PID gains Kp 10, Ki 4, Kd 0.15 with output saturation, and a drive that
 limits the torque to 15 N.m. The wall stands at theta = 0, so every swing to
 negative angles ends on the wall.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -42,16 +43,23 @@ def drive(demand: float, limit: float) -> float:
 OUTPUTS = ("theta", "omega", "gap", "contact_force", "energy.total", "energy.torque_work")
 
 
-def run_loop(fmu: Path, pid: Path, stop_time: float = 2.0, step: float = 1e-3, start_values: dict | None = None,
-             settings: LoopSettings = LoopSettings()) -> np.ndarray:
+def run_loop(
+    fmu: Path,
+    pid: Path,
+    stop_time: float = 2.0,
+    step: float = 1e-3,
+    start_values: dict | None = None,
+    settings: LoopSettings = LoopSettings(),
+) -> np.ndarray:
     """Co-simulate; returns a structured array with time, setpoint, torque and the pendulum outputs."""
     from fmpy.fmi1 import FMICallException
 
     values = {"theta0": 0.0}
     values.update(start_values or {})
     pendulum = NamedSlave(fmu, "pendulum", values)
-    controller = NamedSlave(pid, "pid", {"Kp": settings.kp, "Ki": settings.ki, "Kd": settings.kd,
-                                     "u_max": settings.drive_limit})
+    controller = NamedSlave(
+        pid, "pid", {"Kp": settings.kp, "Ki": settings.ki, "Kd": settings.kd, "u_max": settings.drive_limit}
+    )
     n = int(round(stop_time / step))
     rows = []
     try:
@@ -141,11 +149,14 @@ def command(args: argparse.Namespace) -> None:
     result = run_loop(args.fmu, args.pid, args.stop_time, args.step, parse_start_values(args.set))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     csv = args.out.with_suffix(".csv")
-    np.savetxt(csv, result.view((float, len(result.dtype.names))), delimiter=",",
-               header=",".join(result.dtype.names), comments="")
+    names = result.dtype.names or ()
+    np.savetxt(csv, result.view((float, len(names))), delimiter=",", header=",".join(names), comments="")
     png = plot_loop(result, args.out.with_suffix(".png"))
-    print(f"wrote {csv} and {png}; RMS tracking error away from the wall {math.degrees(tracking_error(result)):.2f} deg, "
-          f"{len(wall_impacts(result))} wall impacts, min gap {result['gap'].min() * 1e3:.3f} mm")
+    print(
+        f"wrote {csv} and {png}; RMS tracking error away from the wall "
+        f"{math.degrees(tracking_error(result)):.2f} deg, {len(wall_impacts(result))} wall impacts, "
+        f"min gap {result['gap'].min() * 1e3:.3f} mm"
+    )
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -1,4 +1,5 @@
 """One FMU instance addressed by variable name, for the masters and benchmarks (fmpy)."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -7,7 +8,7 @@ from pathlib import Path
 class NamedSlave:
     """An fmpy FMU2Slave with name-based access, instantiated and initialised with start values."""
 
-    def __init__(self, path: Path, name: str, start_values: dict):
+    def __init__(self, path: Path, name: str, start_values: dict) -> None:
         from fmpy import extract, read_model_description
         from fmpy.fmi2 import FMU2Slave
 
@@ -15,8 +16,12 @@ class NamedSlave:
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
         self.types = {v.name: v.type for v in self.md.modelVariables}
         self.dir = extract(str(path))
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
-                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu = FMU2Slave(
+            guid=self.md.guid,
+            unzipDirectory=self.dir,
+            modelIdentifier=self.md.coSimulation.modelIdentifier,
+            instanceName=name,
+        )
         self.fmu.instantiate()
         self.fmu.setupExperiment(startTime=0.0)
         self.fmu.enterInitializationMode()
@@ -24,7 +29,7 @@ class NamedSlave:
             self.set(key, value)
         self.fmu.exitInitializationMode()
 
-    def set(self, name: str, value) -> None:
+    def set(self, name: str, value: float | int | bool) -> None:
         typ = self.types[name]
         if typ == "Real":
             self.fmu.setReal([self.vr[name]], [float(value)])

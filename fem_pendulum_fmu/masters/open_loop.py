@@ -6,6 +6,7 @@
 The torque CSV has columns time,torque; fmpy interpolates linearly, so a step
 needs two rows at the same time. Without --torque the torque is zero.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -18,18 +19,19 @@ DEFAULT_FMU = Path("dist") / "FemPendulum.fmu"
 
 def read_torque_csv(path: Path) -> np.ndarray:
     data = np.genfromtxt(path, delimiter=",", names=True)
-    if "time" not in data.dtype.names or "torque" not in data.dtype.names:
+    names = data.dtype.names or ()
+    if "time" not in names or "torque" not in names:
         raise SystemExit(f"{path}: need the columns time,torque (found {data.dtype.names})")
-    return np.array(list(zip(data["time"], data["torque"])), dtype=[("time", float), ("torque", float)])
+    return np.array(list(zip(data["time"], data["torque"], strict=True)), dtype=[("time", float), ("torque", float)])
 
 
-def parse_start_values(items: list[str]) -> dict:
+def parse_start_values(items: list[str]) -> dict[str, float | int | bool]:
     """NAME=VALUE pairs to start values; an enumeration takes its item name (model.fidelity=auto)
     or number, a Boolean true/false."""
     from ..fmi import interface
 
     ifc = interface.load()
-    values = {}
+    values: dict[str, float | int | bool] = {}
     for item in items:
         name, _, text = item.partition("=")
         if not _:
@@ -51,8 +53,9 @@ def parse_start_values(items: list[str]) -> dict:
     return values
 
 
-def run(fmu: Path, torque: np.ndarray | None, stop_time: float, step: float, start_values: dict,
-        progress: bool = True) -> np.ndarray:
+def run(
+    fmu: Path, torque: np.ndarray | None, stop_time: float, step: float, start_values: dict, progress: bool = True
+) -> np.ndarray:
     from fmpy import simulate_fmu
 
     callback = None
@@ -62,13 +65,20 @@ def run(fmu: Path, torque: np.ndarray | None, stop_time: float, step: float, sta
 
         bar = tqdm(total=round(stop_time / step), unit="step", desc="simulating")
 
-        def callback(time, recorder):
+        def callback(time: float, recorder: object) -> bool:
             bar.update(1)
             return True
 
     try:
-        return simulate_fmu(str(fmu), stop_time=stop_time, step_size=step, output_interval=step,
-                            start_values=start_values, input=torque, step_finished=callback)
+        return simulate_fmu(
+            str(fmu),
+            stop_time=stop_time,
+            step_size=step,
+            output_interval=step,
+            start_values=start_values,
+            input=torque,
+            step_finished=callback,
+        )
     finally:
         if bar is not None:
             bar.close()
@@ -95,8 +105,10 @@ def command(args: argparse.Namespace) -> None:
     write_csv(str(csv), result)
     png = plot_results(result, args.out.with_suffix(".png"), f"{args.fmu.name}: open loop")
     err = result["energy.total"] - result["energy.total"][0] - result["energy.torque_work"]
-    print(f"wrote {csv} and {png}; min gap {result['gap'].min():.3e} m, "
-          f"max contact force {result['contact_force'].max():.1f} N, max |E - E0 - W| {np.abs(err).max():.2e} J")
+    print(
+        f"wrote {csv} and {png}; min gap {result['gap'].min():.3e} m, "
+        f"max contact force {result['contact_force'].max():.1f} N, max |E - E0 - W| {np.abs(err).max():.2e} J"
+    )
 
 
 def main(argv: list[str] | None = None) -> None:

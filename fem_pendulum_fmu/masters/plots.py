@@ -1,12 +1,14 @@
 """PNG plots of simulation results (structured numpy arrays with the FMU's output names)."""
+
 from __future__ import annotations
 
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
 
-def _pyplot():
+def _pyplot() -> ModuleType:
     import matplotlib
 
     matplotlib.use("Agg")

@@ -1,4 +1,5 @@
 """Builds PidController.fmu, the controller of the controller-in-the-loop master, with the FMU builder of fmi/."""
+
 from __future__ import annotations
 
 import shutil
