@@ -212,6 +212,13 @@ def validate(scene: Scene) -> Scene:
     return scene
 
 
+def refuse_deformable_wall(scene: Scene, fidelity: str) -> None:
+    """Raise the ValueError of a fidelity that has no meshed wall (rigid, reduced) for wall.kind = deformable."""
+    if scene.wall.kind == "deformable":
+        raise ValueError(f"parameter wall.kind = 'deformable' is not available with model.fidelity = {fidelity!r}: "
+                         "choose rigid or none, or model.fidelity = 'fem'")
+
+
 # Memory of the FE model, measured (python benchmarks/robustness.py memory, docs/robustness.md): peak
 # resident size per unknown 5.4-8.3 kB for 5e3-1.2e5 unknowns at orders 2-5; the estimate takes
 # (3 + order) kB per unknown, twice over, plus a fixed 64 MB.

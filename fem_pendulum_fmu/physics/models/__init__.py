@@ -21,12 +21,12 @@ def create(scene: Scene) -> PendulumModel:
     if fidelity not in AVAILABLE:
         raise ValueError(f"parameter model.fidelity = {fidelity!r} is not available: choose one of auto, {', '.join(AVAILABLE)}")
     if fidelity == "rigid":
-        if scene.wall.kind == "deformable":
-            raise ValueError("parameter wall.kind = 'deformable' is not available with model.fidelity = 'rigid': choose rigid or none, or model.fidelity = 'fem'")
-        from .rigid import RigidModel
+        from .rigid import RigidModel  # refuses a deformable wall itself
+
         return RigidModel(scene)
     if fidelity == "reduced":
         from .reduced import ReducedModel  # refuses a deformable wall itself
+
         return ReducedModel(scene)
     from .fem import FemModel
     return FemModel(scene)

@@ -31,6 +31,7 @@ from .. import material
 from ..geometry import make_mesh
 from ..scene import Scene, validate
 from .. import seed_stepping
+from ..contact_time import contact_time_scale, effective_mass
 from ..stepping import StepControl, advance as advance_steps
 from ..protocol import ModelState, Outputs, StepFailed, check_advance_args
 
@@ -484,8 +485,7 @@ class FemModel:
         if not self.contact_on and self._wall_contact is None:
             return math.inf, 0.0
         p, dist, (nx, ny), rate, i = self._closest_point(xs)
-        lever = abs(p[i, 0] * ny - p[i, 1] * nx)
-        m_eff = self.inertia0 / max(lever, 1e-3 * self.scene.geometry.head_centre_depth) ** 2
+        m_eff = effective_mass(self.inertia0, p[i, 0] * ny - p[i, 1] * nx, self.scene.geometry.head_centre_depth)
         return contact_time_scale(dist, self._head_weights, m_eff, rate, self.scene.contact.stiffness * self.scene.pendulum.thickness)
 
     # ---------------------------------------------------------------- protocol
@@ -589,38 +589,3 @@ class FemModel:
                        potential=potential, strain=strain, contact=c_energy, total=total,
                        torque_work=s.torque_work, von_mises_max=vm, substeps=substeps, min_gap=gap)
 
-
-def contact_time_scale(gaps: np.ndarray, weights: np.ndarray, m_eff: float, rate: float, k_line: float) -> tuple[float, float]:
-    """(duration, largest depth) of the contact now in view, from the penalty law on sampled points.
-
-    The boundary is pushed rigidly along the normal by delta beyond its closest
-    point: E(delta) = k_line/2 * sum_i w_i max(delta - (g_i - g_min), 0)^2.
-    delta_max balances the normal energy available (contact energy now plus
-    the approach's kinetic energy with the effective mass), and the duration is
-    pi sqrt(m_eff / K_sec) with K_sec = 2 E(delta_max) / delta_max^2."""
-    g_min = float(np.min(gaps))
-    pen = np.maximum(-gaps, 0.0)
-    e_now = 0.5 * k_line * float(weights @ (pen * pen))
-    e_avail = e_now + 0.5 * m_eff * (min(rate, 0.0) ** 2 if g_min > 0 else rate * rate)
-    if e_avail <= 0.0:
-        return math.inf, 0.0
-    rel = gaps - g_min  # how far each point is behind the closest one
-
-    def energy(delta: float) -> float:
-        d = np.maximum(delta - rel, 0.0)
-        return 0.5 * k_line * float(weights @ (d * d))
-
-    lo, hi = 0.0, max(-g_min, 1e-9)
-    while energy(hi) < e_avail:
-        hi *= 2.0
-        if hi > 1.0:
-            return math.inf, 0.0
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        if energy(mid) < e_avail:
-            lo = mid
-        else:
-            hi = mid
-    delta = hi
-    k_sec = 2.0 * energy(delta) / (delta * delta)
-    return math.pi * math.sqrt(m_eff / k_sec), delta

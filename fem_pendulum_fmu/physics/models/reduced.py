@@ -30,11 +30,12 @@ import math
 
 import numpy as np
 
+from .. import rigid_contact
 from ..modes import ModalBasis, modal_basis
-from ..scene import Scene, validate
+from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
 from ..protocol import ModelState, Outputs
-from .fem import contact_time_scale
+from ..contact_time import contact_time_scale, effective_mass
 
 NEWTON_MAX_IT = 40
 TANGENT_AFTER = 4  # Newton iterations on the linear modal stiffness before the strain's tangent is assembled
@@ -158,9 +159,7 @@ class ReducedModel(SteppedModel):
 
     def __init__(self, scene: Scene, basis: ModalBasis | None = None):
         self.scene = validate(scene)
-        if scene.wall.kind == "deformable":
-            raise ValueError("parameter wall.kind = 'deformable' is not available with model.fidelity = 'reduced': "
-                             "choose rigid or none, or model.fidelity = 'fem'")
+        refuse_deformable_wall(scene, self.fidelity)
         self.basis = b = basis if basis is not None else modal_basis(scene)
         self.m = b.count
         self.n = self.m + 1
@@ -235,8 +234,6 @@ class ReducedModel(SteppedModel):
 
     def _may_touch(self, z: np.ndarray) -> bool:
         """Cheap exclusion: no head point can reach the block."""
-        from .. import rigid_contact
-
         return rigid_contact.circle_may_touch(*self._head_circle(z), self.block)
 
     def _contact(self, z: np.ndarray) -> tuple:
@@ -375,10 +372,8 @@ class ReducedModel(SteppedModel):
 
     def _circle_gap(self, x: tuple) -> tuple[float, float]:
         """Gap of the head's bounding circle to the block and its rate: a lower bound of the gap."""
-        from ..rigid_contact import point_box
-
         cx, cy, radius = self._head_circle(x[0])
-        d, qx, qy = point_box(cx, cy, self.block)
+        d, qx, qy = rigid_contact.point_box(cx, cy, self.block)
         if d <= 0.0:  # the centre inside the block: no bound from the circle
             return -radius, 0.0
         nx, ny = (cx - qx) / d, (cy - qy) / d
@@ -403,8 +398,7 @@ class ReducedModel(SteppedModel):
         if circle_gap > FAR_GAP and circle_gap + 2.0 * self.control.max_step * min(circle_rate, 0.0) > 0.0:
             return math.inf, 0.0  # no contact within the next two largest steps
         world, dist, i, rate, (nx, ny) = self._closest(x)
-        lever = abs(world[i, 0] * ny - world[i, 1] * nx)
-        m_eff = self.inertia0 / max(lever, 1e-3 * self.scene.geometry.head_centre_depth) ** 2
+        m_eff = effective_mass(self.inertia0, world[i, 0] * ny - world[i, 1] * nx, self.scene.geometry.head_centre_depth)
         near = dist < dist[i] + SCALE_BAND  # points further behind the closest one cannot take part
         return contact_time_scale(dist[near], self.basis.head_weights[near], m_eff, rate, self._hk)
 

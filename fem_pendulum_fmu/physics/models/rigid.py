@@ -21,8 +21,9 @@ import math
 from functools import lru_cache
 
 from .. import rigid_contact
+from ..contact_time import effective_mass
 from ..geometry import make_mesh
-from ..scene import PendulumGeometry, Scene, validate
+from ..scene import PendulumGeometry, Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
 from ..protocol import ModelState, Outputs
 
@@ -77,9 +78,7 @@ class RigidModel(SteppedModel):
 
     def __init__(self, scene: Scene):
         self.scene = validate(scene)
-        if scene.wall.kind == "deformable":
-            raise ValueError("parameter wall.kind = 'deformable' is not available with model.fidelity = 'rigid': "
-                             "choose rigid or none, or model.fidelity = 'fem'")
+        refuse_deformable_wall(scene, self.fidelity)
         geo, mat = scene.geometry, scene.pendulum
         area, sy, polar = geometry_moments(geo)
         rho_h = mat.rho * mat.thickness
@@ -102,10 +101,16 @@ class RigidModel(SteppedModel):
         self._memo: dict[float, tuple] = {}  # pure functions of the angle, so caching keeps runs deterministic
         self._gap_memo: dict[float, tuple[float, float]] = {}
         self.time = 0.0
-        self._x = (float(scene.theta0), float(scene.omega0), 0.0)
+        self._x = self.state(scene.theta0, scene.omega0)
         self.last_min_gap = math.inf
         self._outputs = self._compute_outputs(self._x, 0.0, 0)
         self.last_min_gap = self._outputs.gap
+
+    @staticmethod
+    def state(theta: float, omega: float, torque_work: float = 0.0) -> tuple[float, float, float]:
+        """The model's state at angle theta (rad) and angular velocity omega (rad/s): what `step`,
+        `gap_and_rate` and `contact_scales` take."""
+        return (float(theta), float(omega), float(torque_work))
 
     # -------------------------------------------------------------- geometry
     def arc(self, theta: float) -> rigid_contact.Arc:
@@ -248,8 +253,7 @@ class RigidModel(SteppedModel):
         rate = slope * w
         if gap > NEAR_FRACTION * self._radius and rate >= 0.0:
             return math.inf, 0.0  # far and not approaching
-        lever = max(abs(slope), 1e-3 * self._depth)
-        m_eff = self.inertia / (lever * lever)
+        m_eff = effective_mass(self.inertia, slope, self._depth)
         energy = self._contact(q)[1].energy
         law = energy / (-gap) ** 2.5 if gap < 0.0 and energy > 0.0 else self._flat_law
         speed2 = max(rate * rate, APPROACH_SPEED_FLOOR ** 2)

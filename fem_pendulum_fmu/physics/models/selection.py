@@ -24,7 +24,10 @@ import logging
 import math
 from dataclasses import dataclass
 
+from ..modes import first_elastic_frequency, modal_basis
 from ..scene import Scene
+from .reduced import uses_linear_strain
+from .rigid import RigidModel
 
 LOG = logging.getLogger("fem_pendulum_fmu")
 
@@ -44,22 +47,17 @@ def choose(scene: Scene) -> Choice:
     """The fidelity "auto" runs for `scene`, and why."""
     if scene.wall.kind == "deformable":
         return Choice("fem", "wall.kind = deformable needs the FE model")
-    from ..modes import first_elastic_frequency
-    from .rigid import RigidModel
-
     f1 = first_elastic_frequency(scene)
     rigid = RigidModel(scene.with_values({"model.fidelity": "rigid"}))
     if rigid.contact_on:
         omega_hit = impact_speed(rigid)
         if omega_hit > 0.0:  # (always, with gravity or a start speed)
             # the rigid model's contact estimate at the moment of touching, moving into the wall
-            t_c, _ = rigid.contact_scales((0.0, -omega_hit, 0.0))
+            t_c, _ = rigid.contact_scales(RigidModel.state(0.0, -omega_hit))
             ratio = f1 * t_c
             if ratio >= RIGID_CONTACT_PERIODS:
                 return Choice("rigid", f"contact {t_c * 1e3:.3g} ms lasts {ratio:.3g} first elastic periods "
                                        f"(f1 = {f1:.4g} Hz, rigid from {RIGID_CONTACT_PERIODS:g})")
-            from ..modes import modal_basis
-
             f_top = math.sqrt(modal_basis(scene).eigen_omega2[-1]) / (2.0 * math.pi)
             f_band = EXCITED_BAND / t_c
             why = (f"contact {t_c * 1e3:.3g} ms lasts only {ratio:.3g} first elastic periods (f1 = {f1:.4g} Hz): "
@@ -78,8 +76,6 @@ def choose(scene: Scene) -> Choice:
 def soft_or_reduced(scene: Scene, why: str) -> Choice:
     """reduced, unless the body is soft: a soft rod bends far beyond what a linear basis carries
     under a modest pivot torque (rubber: 2.4 rad of bending at 0.3 N.m, docs/reduced.md)."""
-    from .reduced import uses_linear_strain
-
     if uses_linear_strain(scene):
         return Choice("reduced", why)
     return Choice("fem", why + "; the body is soft (E / rho <= 1e5 m^2/s^2): large deflections need fem")

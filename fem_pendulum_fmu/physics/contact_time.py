@@ -1,0 +1,64 @@
+"""How long a contact lasts and how deep it goes: the estimates step control sizes its steps by.
+
+Shared by every fidelity (stepping.py asks a model for them through
+`contact_scales`); plain functions over numbers and numpy arrays.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+ARM_FLOOR = 1e-3  # share of the head centre's depth below which a contact normal's moment arm is not trusted
+
+
+def effective_mass(inertia: float, arm: float, depth: float) -> float:
+    """I / arm^2: the mass a rotation about the pivot presents along a contact normal.
+
+    Parameters
+    ----------
+    inertia : moment of inertia about the pivot (kg m^2).
+    arm : the normal's moment arm about the pivot (m, either sign), i.e. d gap / d theta.
+    depth : the head centre's depth below the pivot (m); the arm is floored at ARM_FLOOR times it,
+        so that a normal through the pivot does not give an infinite mass.
+
+    Returns
+    -------
+    The effective mass (kg)."""
+    return inertia / max(abs(arm), ARM_FLOOR * depth) ** 2
+
+
+def contact_time_scale(gaps: np.ndarray, weights: np.ndarray, m_eff: float, rate: float, k_line: float) -> tuple[float, float]:
+    """(duration, largest depth) of the contact now in view, from the penalty law on sampled points.
+
+    The boundary is pushed rigidly along the normal by delta beyond its closest
+    point: E(delta) = k_line/2 * sum_i w_i max(delta - (g_i - g_min), 0)^2.
+    delta_max balances the normal energy available (contact energy now plus
+    the approach's kinetic energy with the effective mass), and the duration is
+    pi sqrt(m_eff / K_sec) with K_sec = 2 E(delta_max) / delta_max^2."""
+    g_min = float(np.min(gaps))
+    pen = np.maximum(-gaps, 0.0)
+    e_now = 0.5 * k_line * float(weights @ (pen * pen))
+    e_avail = e_now + 0.5 * m_eff * (min(rate, 0.0) ** 2 if g_min > 0 else rate * rate)
+    if e_avail <= 0.0:
+        return math.inf, 0.0
+    rel = gaps - g_min  # how far each point is behind the closest one
+
+    def energy(delta: float) -> float:
+        d = np.maximum(delta - rel, 0.0)
+        return 0.5 * k_line * float(weights @ (d * d))
+
+    lo, hi = 0.0, max(-g_min, 1e-9)
+    while energy(hi) < e_avail:
+        hi *= 2.0
+        if hi > 1.0:
+            return math.inf, 0.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if energy(mid) < e_avail:
+            lo = mid
+        else:
+            hi = mid
+    delta = hi
+    k_sec = 2.0 * energy(delta) / (delta * delta)
+    return math.pi * math.sqrt(m_eff / k_sec), delta
