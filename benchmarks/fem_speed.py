@@ -10,6 +10,7 @@ and prints wall time per simulated second next to the accuracy it reached
 When ../shared/baseline/seed_pendulum.py is there it also times the seed on a
 short run at dt = 1 ms in the same session and prints the ratio.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -45,18 +46,26 @@ def run_fem(refine_like_seed: bool, comm_step: float | None, t_end: float = 1.0)
         substeps += o.substeps
     wall = time.perf_counter() - t0
     th = np.degrees(theta)
-    peak = float(th[len(th) // 3:len(th) * 2 // 3].max()) if len(th) > 10 else float("nan")
-    return {"ndof": model.X.ndof, "ne": model.mesh.ne, "setup_s": setup, "wall_per_sim_s": wall / t_end,
-            "substeps": substeps, "first_rebound_deg": peak, "penetration_um": -min(min_gap) * 1e6,
-            "energy_error_rel": max(e_err) / swing}
+    peak = float(th[len(th) // 3 : len(th) * 2 // 3].max()) if len(th) > 10 else float("nan")
+    return {
+        "ndof": model.X.ndof,
+        "ne": model.mesh.ne,
+        "setup_s": setup,
+        "wall_per_sim_s": wall / t_end,
+        "substeps": substeps,
+        "first_rebound_deg": peak,
+        "penetration_um": -min(min_gap) * 1e6,
+        "energy_error_rel": max(e_err) / swing,
+    }
 
 
 def seed_cost_per_step(steps: int) -> float | None:
     """Seconds per 1 ms step of the seed baseline, measured now on this machine."""
     if not SEED.exists():
         return None
-    out = subprocess.run([sys.executable, str(SEED), str(steps * 1e-3), "1e-3"], capture_output=True, text=True,
-                         check=True).stdout
+    out = subprocess.run(
+        [sys.executable, str(SEED), str(steps * 1e-3), "1e-3"], capture_output=True, text=True, check=True
+    ).stdout
     wall = float(re.search(r"wall=([0-9.]+)s", out).group(1))
     return wall / steps
 
@@ -67,28 +76,37 @@ def main() -> None:
     parser.add_argument("--no-seed", action="store_true", help="skip timing the seed baseline")
     args = parser.parse_args()
     rows = []
-    for label, refine, comm in (("default mesh, one advance", False, None),
-                                ("default mesh, 1 ms communication steps", False, 1e-3),
-                                ("seed's mesh, one advance", True, None),
-                                ("seed's mesh, 1 ms communication steps", True, 1e-3)):
+    for label, refine, comm in (
+        ("default mesh, one advance", False, None),
+        ("default mesh, 1 ms communication steps", False, 1e-3),
+        ("seed's mesh, one advance", True, None),
+        ("seed's mesh, 1 ms communication steps", True, 1e-3),
+    ):
         r = run_fem(refine, comm)
         rows.append((label, r))
         print(f"{label}: {r}", flush=True)
     seed = None if args.no_seed else seed_cost_per_step(args.seed_steps)
     print()
-    print("| run | ndof | wall s per simulated s | internal steps | first rebound (deg) | penetration (um) | max energy error / swing energy |")
+    print(
+        "| run | ndof | wall s per simulated s | internal steps | first rebound (deg) | penetration (um) "
+        "| max energy error / swing energy |"
+    )
     print("|---|---|---|---|---|---|---|")
     for label, r in rows:
-        print(f"| {label} | {r['ndof']} | {r['wall_per_sim_s']:.2f} | {r['substeps']} | {r['first_rebound_deg']:.3f} "
-              f"| {r['penetration_um']:.1f} | {r['energy_error_rel']:.1e} |")
+        print(
+            f"| {label} | {r['ndof']} | {r['wall_per_sim_s']:.2f} | {r['substeps']} | {r['first_rebound_deg']:.3f} "
+            f"| {r['penetration_um']:.1f} | {r['energy_error_rel']:.1e} |"
+        )
     if seed is not None:
         seed_per_sim = seed * 1000.0
         print(f"\nseed baseline (dt 1 ms, {args.seed_steps} steps timed now): {seed_per_sim:.0f} s per simulated s")
         for label, r in rows:
             print(f"  {label}: {seed_per_sim / r['wall_per_sim_s']:.0f}x faster than the seed")
     else:
-        print("\nseed baseline not timed (../shared/baseline/seed_pendulum.py absent or --no-seed); "
-              "its figure on the 2-core machine is 478 s per simulated s")
+        print(
+            "\nseed baseline not timed (../shared/baseline/seed_pendulum.py absent or --no-seed); "
+            "its figure on the 2-core machine is 478 s per simulated s"
+        )
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@ run when --repeat-fem is 1), with the CPU spread. The comparison with fem stops
 before the second impact (--compare-until): after it, both models' results
 depend on the phase of a vibration 1-2 ms steps do not resolve.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,11 +36,13 @@ fmu, preset, fidelity, t_end = sys.argv[1], sys.argv[2], int(sys.argv[3]), float
 md = read_model_description(fmu)
 vr = {v.name: v.valueReference for v in md.modelVariables}
 names = ["theta", "gap", "energy.total", "energy.torque_work", "solver.substeps"]
-s = FMU2Slave(guid=md.guid, unzipDirectory=extract(fmu), modelIdentifier=md.coSimulation.modelIdentifier, instanceName="b")
+s = FMU2Slave(guid=md.guid, unzipDirectory=extract(fmu), modelIdentifier=md.coSimulation.modelIdentifier,
+              instanceName="b")
 s.instantiate(); s.setupExperiment(startTime=0.0); s.enterInitializationMode()
 s.setInteger([vr["model.fidelity"]], [fidelity])
 if preset == "compliant":
-    s.setReal([vr["pendulum.E"], vr["pendulum.nu"], vr["pendulum.rho"], vr["contact.stiffness"]], [1e6, 0.45, 1000.0, 5e9])
+    s.setReal([vr["pendulum.E"], vr["pendulum.nu"], vr["pendulum.rho"], vr["contact.stiffness"]],
+              [1e6, 0.45, 1000.0, 5e9])
     s.setInteger([vr["model.order"]], [3])
 s.exitInitializationMode()
 reals = [vr[n] for n in names[:4]]
@@ -65,8 +68,13 @@ SWING_DROP = 1.0 - np.cos(np.radians(20.0))
 def run(fmu: Path, preset: str, fidelity: str, t_end: float, tmp: Path) -> tuple[dict, np.ndarray]:
     out = tmp / f"{preset}_{fidelity}.npy"
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    proc = subprocess.run([sys.executable, "-c", CHILD, str(fmu), preset, str(FIDELITY_NUMBER[fidelity]), str(t_end), str(out)],
-                          capture_output=True, text=True, env=env, check=True)
+    proc = subprocess.run(
+        [sys.executable, "-c", CHILD, str(fmu), preset, str(FIDELITY_NUMBER[fidelity]), str(t_end), str(out)],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=True,
+    )
     return json.loads(proc.stdout.strip().splitlines()[-1]), np.load(out)
 
 
@@ -86,15 +94,21 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--repeat-fem", type=int, default=1)
     p.add_argument("--scenes", default="stiff,compliant")
-    p.add_argument("--compare-until", type=float, default=0.6,
-                   help="compare with fem up to this time (s): before the second impact, after which both "
-                        "models' results depend on the phase of an unresolved vibration (docs/reduced.md)")
+    p.add_argument(
+        "--compare-until",
+        type=float,
+        default=0.6,
+        help="compare with fem up to this time (s): before the second impact, after which both "
+        "models' results depend on the phase of an unresolved vibration (docs/reduced.md)",
+    )
     args = p.parse_args(argv)
     if not args.fmu.exists():
         subprocess.run([sys.executable, "build_fmu.py"], check=True)
-    print(f"| scene | fidelity | CPU s per simulated s (median, spread) | wall s per simulated s (median) | "
-          f"internal steps per s | max dtheta vs fem to {args.compare_until:g} s (deg) | max dgap (mm) | "
-          f"energy error / swing energy (whole run) |")
+    print(
+        f"| scene | fidelity | CPU s per simulated s (median, spread) | wall s per simulated s (median) | "
+        f"internal steps per s | max dtheta vs fem to {args.compare_until:g} s (deg) | max dgap (mm) | "
+        f"energy error / swing energy (whole run) |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for preset in args.scenes.split(","):
@@ -116,9 +130,12 @@ def main(argv: list[str] | None = None) -> None:
                 cpu, wall = times[len(times) // 2]
                 spread = f"{times[0][0]:.3g}-{times[-1][0]:.3g}" if len(times) > 1 else "1 run"
                 steps = rows[1:, 4].sum() / args.t_end
-                print(f"| {preset} | {fidelity} | {cpu:.3g} ({spread}) | {wall:.3g} | {steps:.0f} | "
-                      f"{'reference' if fidelity == 'fem' else f'{dth:.3g}'} | "
-                      f"{'reference' if fidelity == 'fem' else f'{dgap:.3g}'} | {energy:.2g} |", flush=True)
+                print(
+                    f"| {preset} | {fidelity} | {cpu:.3g} ({spread}) | {wall:.3g} | {steps:.0f} | "
+                    f"{'reference' if fidelity == 'fem' else f'{dth:.3g}'} | "
+                    f"{'reference' if fidelity == 'fem' else f'{dgap:.3g}'} | {energy:.2g} |",
+                    flush=True,
+                )
 
 
 if __name__ == "__main__":

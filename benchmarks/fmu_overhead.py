@@ -10,6 +10,7 @@ initialise of a new process's first instance, once with an empty mesh cache
 (cold) and then with the cache the first run filled (warm, best of the rest);
 each run is a fresh process.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -17,7 +18,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 FMU_STEPS = """
@@ -60,7 +60,10 @@ def main() -> None:
     p.add_argument("--steps", type=int, default=200)
     p.add_argument("--repeat", type=int, default=3, help="runs each way; the first FMU run has the cold cache")
     args = p.parse_args()
-    print("| fidelity | direct s/step | through fmpy s/step | overhead per doStep | instantiate+initialise, cold cache | warm cache |")
+    print(
+        "| fidelity | direct s/step | through fmpy s/step | overhead per doStep "
+        "| instantiate+initialise, cold cache | warm cache |"
+    )
     print("|---|---|---|---|---|---|")
     for name, code in (("fem", 4), ("rigid", 2)):
         # best of --repeat runs each way, alternating, so that load from other jobs hits both alike
@@ -68,14 +71,29 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as cache_dir:
             env = {**os.environ, "FEM_PENDULUM_CACHE": cache_dir}
             for _ in range(args.repeat):
-                direct.append(float(subprocess.run([sys.executable, "-c", DIRECT, str(args.steps), name],
-                                                   capture_output=True, text=True, check=True).stdout.split()[-1]))
-                out = subprocess.run([sys.executable, "-c", FMU_STEPS, str(args.fmu), str(args.steps), str(code)],
-                                     capture_output=True, text=True, check=True, env=env).stdout.split()
+                direct.append(
+                    float(
+                        subprocess.run(
+                            [sys.executable, "-c", DIRECT, str(args.steps), name],
+                            capture_output=True,
+                            text=True,
+                            check=True,
+                        ).stdout.split()[-1]
+                    )
+                )
+                out = subprocess.run(
+                    [sys.executable, "-c", FMU_STEPS, str(args.fmu), str(args.steps), str(code)],
+                    capture_output=True,
+                    text=True,
+                    check=True,
+                    env=env,
+                ).stdout.split()
                 runs.append((float(out[-2]), float(out[-1])))
         best_direct, via = min(direct), min(r[1] for r in runs)
-        print(f"| {name} | {best_direct * 1e3:.3f} ms | {via * 1e3:.3f} ms | {(via - best_direct) * 1e6:.0f} us "
-              f"| {runs[0][0]:.2f} s | {min(r[0] for r in runs[1:]):.2f} s |")
+        print(
+            f"| {name} | {best_direct * 1e3:.3f} ms | {via * 1e3:.3f} ms | {(via - best_direct) * 1e6:.0f} us "
+            f"| {runs[0][0]:.2f} s | {min(r[0] for r in runs[1:]):.2f} s |"
+        )
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@ wall) and prints the first contact time, the first rebound peak, the largest
 penetration, the energy error and the wall time, plus the largest theta and
 gap differences against the finest discretisation of the list.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -33,9 +34,16 @@ def run(preset: str, size: float, order: int, t_end: float) -> dict:
     wall = time.perf_counter() - t0
     r = np.array(rows)
     k = int(np.argmax(r[:, 3] < 0))
-    return {"ndof": model.X.ndof, "wall_per_sim_s": wall / t_end, "contact_ms": r[k, 0] * 1e3,
-            "peak_deg": float(np.degrees(r[k:, 1].max())), "pen_um": -r[:, 3].min() * 1e6,
-            "energy_rel": r[:, 4].max() / swing, "theta": r[:, 1], "gap": r[:, 2]}
+    return {
+        "ndof": model.X.ndof,
+        "wall_per_sim_s": wall / t_end,
+        "contact_ms": r[k, 0] * 1e3,
+        "peak_deg": float(np.degrees(r[k:, 1].max())),
+        "pen_um": -r[:, 3].min() * 1e6,
+        "energy_rel": r[:, 4].max() / swing,
+        "theta": r[:, 1],
+        "gap": r[:, 2],
+    }
 
 
 def main() -> None:
@@ -49,14 +57,19 @@ def main() -> None:
         print(case, {k: v for k, v in results[case].items() if k not in ("theta", "gap")}, flush=True)
     ref = results[CASES[-1]]
     print(f"preset {args.preset}, {args.t_end} s, reference {CASES[-1]}")
-    print("| mesh size | order | ndof | wall s / sim s | contact in interval ending (ms) | first rebound (deg) "
-          "| penetration (um) | energy error / swing | max theta diff (deg) | max gap diff (mm) |")
+    print(
+        "| mesh size | order | ndof | wall s / sim s | contact in interval ending (ms) | first rebound (deg) "
+        "| penetration (um) | energy error / swing | max theta diff (deg) | max gap diff (mm) |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for (size, order), r in results.items():
         dth = np.degrees(np.max(np.abs(r["theta"] - ref["theta"])))
         dgap = np.max(np.abs(r["gap"] - ref["gap"])) * 1e3
-        print(f"| {size} | {order} | {r['ndof']} | {r['wall_per_sim_s']:.2f} | {r['contact_ms']:.0f} | {r['peak_deg']:.3f} "
-              f"| {r['pen_um']:.1f} | {r['energy_rel']:.1e} | {dth:.4f} | {dgap:.4f} |")
+        print(
+            f"| {size} | {order} | {r['ndof']} | {r['wall_per_sim_s']:.2f} | {r['contact_ms']:.0f} "
+            f"| {r['peak_deg']:.3f} "
+            f"| {r['pen_um']:.1f} | {r['energy_rel']:.1e} | {dth:.4f} | {dgap:.4f} |"
+        )
 
 
 if __name__ == "__main__":

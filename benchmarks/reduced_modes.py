@@ -8,6 +8,7 @@ first impact and 0.12 degree up to 0.7 s). Printed per mode count: max |theta -
 theta_fem| and max |gap - gap_fem| up to several times, internal steps and wall
 time per simulated second of the direct (not FMU) run.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -42,8 +43,11 @@ def main() -> None:
     times = [t for t in (0.25, 0.3, 0.4, 0.5, 0.7) if t < args.t_end] + [args.t_end]
     t = np.arange(1, len(ref) + 1) * DT
     print(f"FE reference: {wall / args.t_end:.3g} s per simulated s")
-    print("| modes (+ load corrections) | " + " | ".join(f"to {x:g} s: dtheta deg / dgap mm" for x in times)
-          + " | steps per s | wall s per simulated s |")
+    print(
+        "| modes (+ load corrections) | "
+        + " | ".join(f"to {x:g} s: dtheta deg / dgap mm" for x in times)
+        + " | steps per s | wall s per simulated s |"
+    )
     print("|---" * (len(times) + 3) + "|")
     for m in (int(v) for v in args.modes.split(",")):
         out, wall, steps = trace(create(scene.with_values({"model.fidelity": "reduced", "model.modes": m})), args.t_end)

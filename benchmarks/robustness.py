@@ -1,25 +1,25 @@
 """Measurements behind docs/robustness.md.
 
-    python benchmarks/robustness.py hard-cases [-k EXPR]
-        runs tests/test_hard_cases.py with FEM_PENDULUM_ROBUSTNESS_LOG set (the tests record their
-        measured worst values before asserting them) and prints one table row per case and fidelity
-    python benchmarks/robustness.py memory
-        peak resident memory of building the FE model and taking one step, against the estimate
-        scene.mesh_memory_estimate that refuses meshes too fine for the machine
-    python benchmarks/robustness.py leak --fmu dist/FemPendulum.fmu
-        resident memory over 60 instances refused at initialisation (mesh too fine, nu = 0.5)
-        against 60 valid ones, each freed with fmi2FreeInstance
-    python benchmarks/robustness.py findings
-        the measurements behind the findings of docs/robustness.md: Gauss points of the discrete
-        gradient (steel after violent impacts, rubber after a pulse, cost on the default run),
-        penetration against the square wave's period, step-sequence sensitivity after a second impact
+python benchmarks/robustness.py hard-cases [-k EXPR]
+    runs tests/test_hard_cases.py with FEM_PENDULUM_ROBUSTNESS_LOG set (the tests record their
+    measured worst values before asserting them) and prints one table row per case and fidelity
+python benchmarks/robustness.py memory
+    peak resident memory of building the FE model and taking one step, against the estimate
+    scene.mesh_memory_estimate that refuses meshes too fine for the machine
+python benchmarks/robustness.py leak --fmu dist/FemPendulum.fmu
+    resident memory over 60 instances refused at initialisation (mesh too fine, nu = 0.5)
+    against 60 valid ones, each freed with fmi2FreeInstance
+python benchmarks/robustness.py findings
+    the measurements behind the findings of docs/robustness.md: Gauss points of the discrete
+    gradient (steel after violent impacts, rubber after a pulse, cost on the default run),
+    penetration against the square wave's period, step-sequence sensitivity after a second impact
 """
+
 from __future__ import annotations
 
 import argparse
 import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -32,20 +32,32 @@ def hard_cases(keyword: str | None) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         log = Path(tmp) / "log.jsonl"
         env = dict(os.environ, FEM_PENDULUM_ROBUSTNESS_LOG=str(log))
-        cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(ROOT / "tests" / "test_hard_cases.py")]
+        cmd = [
+            sys.executable,
+            "-m",
+            "pytest",
+            "-q",
+            "-p",
+            "no:cacheprovider",
+            str(ROOT / "tests" / "test_hard_cases.py"),
+        ]
         if keyword:
             cmd += ["-k", keyword]
         run = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
         print(run.stdout.strip().splitlines()[-1])
         rows = [json.loads(line) for line in log.read_text().splitlines()] if log.exists() else []
-    print("\n| test | fidelity | energy error / scale (bound) | scale J | max penetration mm | steps per ms (bound) | "
-          "max steps in a doStep | bit-identical runs | discarded |")
+    print(
+        "\n| test | fidelity | energy error / scale (bound) | scale J | max penetration mm | steps per ms (bound) | "
+        "max steps in a doStep | bit-identical runs | discarded |"
+    )
     print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         if "steps_per_ms" in r:
-            print(f"| {r['test']} | {r['fidelity']} | {r['energy']:.2e} ({r['bound_energy']:g}) | {r['scale']:.3g} | "
-                  f"{1e3 * r['penetration']:.4f} | {r['steps_per_ms']:.2f} ({r['bound_steps_per_ms']:g}) | "
-                  f"{r['max_substeps']:.0f} | {r['runs']} {'equal' if r['identical'] else 'DIFFER'} | {r['discarded']} |")
+            print(
+                f"| {r['test']} | {r['fidelity']} | {r['energy']:.2e} ({r['bound_energy']:g}) | {r['scale']:.3g} | "
+                f"{1e3 * r['penetration']:.4f} | {r['steps_per_ms']:.2f} ({r['bound_steps_per_ms']:g}) | "
+                f"{r['max_substeps']:.0f} | {r['runs']} {'equal' if r['identical'] else 'DIFFER'} | {r['discarded']} |"
+            )
     print()
     for r in rows:
         if "steps_per_ms" not in r:
@@ -68,12 +80,16 @@ r1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 print(json.dumps([h, p, m.X.ndof, estimated_unknowns(scene), (r1 - r0) / 1024, mesh_memory_estimate(scene) / 2**20,
                   time.perf_counter() - t0]))
 """
-    print("| mesh size | order | unknowns | estimated unknowns | peak RSS growth MB | estimate MB | kB per unknown | s |")
+    print(
+        "| mesh size | order | unknowns | estimated unknowns | peak RSS growth MB | estimate MB | kB per unknown | s |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     for h, p in ((0.03, 2), (0.01, 2), (0.005, 2), (0.005, 4), (0.0025, 3), (0.0025, 5)):
         out = subprocess.run([sys.executable, "-c", script, str(h), str(p)], capture_output=True, text=True, check=True)
         h_, p_, ndof, est, rss, est_mb, secs = json.loads(out.stdout.strip().splitlines()[-1])
-        print(f"| {h_:g} | {p_} | {ndof} | {est:.0f} | {rss:.0f} | {est_mb:.0f} | {1024 * rss / ndof:.1f} | {secs:.1f} |")
+        print(
+            f"| {h_:g} | {p_} | {ndof} | {est:.0f} | {rss:.0f} | {est_mb:.0f} | {1024 * rss / ndof:.1f} | {secs:.1f} |"
+        )
 
 
 FINDINGS = r"""
@@ -136,7 +152,8 @@ elif what == "quadrature":  # rubber (order 3), 2 N.m held in 0.1 ms steps: the 
 elif what == "resting-tolerance":  # -5 N.m from rest touching the wall, 30 ms in 0.1 ms steps, per solver.tolerance
     for fidelity in ("rigid", "fem"):
         for tol in (1e-3, 1e-2, 1e-1):
-            m = create(stiff(**{"model.fidelity": fidelity, "model.mesh_size": 0.06, "theta0": 0.0, "solver.tolerance": tol}))
+            m = create(stiff(**{"model.fidelity": fidelity, "model.mesh_size": 0.06, "theta0": 0.0,
+                                "solver.tolerance": tol}))
             e0, forces, steps, worst, t0 = m.outputs().total, [], 0, 0.0, time.perf_counter()
             for k in range(1, 301):
                 out = m.advance(k * 1e-4, -5.0)
@@ -163,15 +180,20 @@ elif what == "sequence":  # fem, default scene, 1 s: 1 ms against 0.1 s communic
         runs[label] = {round(k * h, 6): m.advance(k * h, 0.0).theta for k in range(1, int(round(1.0 / h)) + 1)}
     for label in ("0.1s", "1ms-max_step-0.5ms"):
         d = {t: abs(runs[label][t] - runs["1ms"][t]) for t in runs["0.1s"]}
-        print(json.dumps({"case": what, "against_1ms": label, "max_dtheta_before_0.7s": max(v for t, v in d.items() if t <= 0.7),
+        print(json.dumps({"case": what, "against_1ms": label,
+                          "max_dtheta_before_0.7s": max(v for t, v in d.items() if t <= 0.7),
                           "max_dtheta_after": max(v for t, v in d.items() if t > 0.7)}))
 """
 
 
 def findings() -> None:
-    jobs = [("gauss-violent", n) for n in (1, 2, 3)] + [("gauss-rubber", n) for n in (2, 3)] + \
-           [("gauss-default", n) for n in (1, 2, 1, 2)] + [("penetration", None), ("sequence", None), ("resting-tolerance", None)] + \
-           [("quadrature", v) for v in ("guard", "no-guard", "no-guard-old-torque-rule", "no-guard-old-strain-rule")]
+    jobs = (
+        [("gauss-violent", n) for n in (1, 2, 3)]
+        + [("gauss-rubber", n) for n in (2, 3)]
+        + [("gauss-default", n) for n in (1, 2, 1, 2)]
+        + [("penetration", None), ("sequence", None), ("resting-tolerance", None)]
+        + [("quadrature", v) for v in ("guard", "no-guard", "no-guard-old-torque-rule", "no-guard-old-strain-rule")]
+    )
     for what, n in jobs:
         args = [sys.executable, "-c", FINDINGS, what] + ([str(n)] if n is not None else [])
         out = subprocess.run(args, capture_output=True, text=True, check=True, cwd=ROOT)
@@ -214,8 +236,9 @@ print(sys.argv[2], samples, "MB per instance after the first:", round((samples[-
 def leak(fmu: str) -> None:
     """Memory growth per instance: refused at initialisation and freed, against valid ones instantiated and freed."""
     for kind in ("mesh", "nu", "valid"):
-        out = subprocess.run([sys.executable, "-c", LEAK, fmu, kind, str(ROOT / "tests")], capture_output=True,
-                             text=True, check=True)
+        out = subprocess.run(
+            [sys.executable, "-c", LEAK, fmu, kind, str(ROOT / "tests")], capture_output=True, text=True, check=True
+        )
         print(out.stdout.strip())
 
 
@@ -225,8 +248,9 @@ def main() -> None:
     parser.add_argument("--fmu", default=str(ROOT / "dist" / "FemPendulum.fmu"), help="the FMU (leak)")
     parser.add_argument("-k", help="pytest -k expression (hard-cases)")
     args = parser.parse_args()
-    {"hard-cases": lambda: hard_cases(args.k), "memory": memory, "findings": findings,
-     "leak": lambda: leak(args.fmu)}[args.what]()
+    {"hard-cases": lambda: hard_cases(args.k), "memory": memory, "findings": findings, "leak": lambda: leak(args.fmu)}[
+        args.what
+    ]()
 
 
 if __name__ == "__main__":

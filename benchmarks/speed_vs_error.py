@@ -22,6 +22,7 @@ newmark_gap_rule of the FE model) run as extra rows.
 The FMUs are built from this checkout into a temporary folder unless --fmu
 and --pid are given.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -64,12 +65,24 @@ class SceneCase:
 
 SCENES = (
     SceneCase("steel", "steel (stiff preset) released at 20 deg, rigid wall, no torque", 2.0, "stiff"),
-    SceneCase("rubber", "rubber (compliant preset, order 3) released at 20 deg, rigid wall, no torque", 2.0,
-              "compliant"),
-    SceneCase("controller", "PID controller loop of fem-pendulum-control (steel, from rest at 0 deg, "
-              "20-deg sine set-point, 15 N.m drive)", 2.0, "stiff", {"theta0": 0.0}, loop=True),
-    SceneCase("deformable_wall", "steel released at 20 deg against the seed's meshed steel wall "
-              "(wall.kind deformable, fem only)", 0.5, "stiff", {"wall.kind": "deformable"}),
+    SceneCase(
+        "rubber", "rubber (compliant preset, order 3) released at 20 deg, rigid wall, no torque", 2.0, "compliant"
+    ),
+    SceneCase(
+        "controller",
+        "PID controller loop of fem-pendulum-control (steel, from rest at 0 deg, 20-deg sine set-point, 15 N.m drive)",
+        2.0,
+        "stiff",
+        {"theta0": 0.0},
+        loop=True,
+    ),
+    SceneCase(
+        "deformable_wall",
+        "steel released at 20 deg against the seed's meshed steel wall (wall.kind deformable, fem only)",
+        0.5,
+        "stiff",
+        {"wall.kind": "deformable"},
+    ),
 )
 SCENE = {s.name: s for s in SCENES}
 
@@ -142,22 +155,32 @@ def settings(curve: str, case: SceneCase) -> list[Setting]:
         return [Setting(curve, "default", f)] + [Setting(curve, label, {**f, **v}) for label, v in variants]
     if curve in ("rigid", "reduced"):
         f = {"model.fidelity": curve}
-        rows = [Setting(curve, "default", f)] + [Setting(curve, label, {**f, **v}) for label, v in (
-            ("tol 1e-1", {"solver.tolerance": 1e-1}), ("tol 1e-2", {"solver.tolerance": 1e-2}),
-            ("tol 1e-4", {"solver.tolerance": 1e-4}), ("tol 1e-5", {"solver.tolerance": 1e-5}),
-            ("max_step 2.5e-4", {"solver.max_step": 2.5e-4}))]
+        rows = [Setting(curve, "default", f)] + [
+            Setting(curve, label, {**f, **v})
+            for label, v in (
+                ("tol 1e-1", {"solver.tolerance": 1e-1}),
+                ("tol 1e-2", {"solver.tolerance": 1e-2}),
+                ("tol 1e-4", {"solver.tolerance": 1e-4}),
+                ("tol 1e-5", {"solver.tolerance": 1e-5}),
+                ("max_step 2.5e-4", {"solver.max_step": 2.5e-4}),
+            )
+        ]
         if curve == "reduced":
             rows += [Setting(curve, f"modes {m}", {**f, "model.modes": m}) for m in (2, 12)]
         return rows
     seed = {"model.fidelity": "fem", "solver.max_substeps": SEED_STEP_BUDGET}
     if curve == SEED_FIXED:
         steps = (1e-3, 2.5e-4) if costly or case.loop else (1e-3, 5e-4, 2.5e-4, 1e-4)
-        return [Setting(curve, f"dt {dt:g}", {**seed, "solver.scheme": "newmark_fixed", "solver.max_step": dt})
-                for dt in steps]
+        return [
+            Setting(curve, f"dt {dt:g}", {**seed, "solver.scheme": "newmark_fixed", "solver.max_step": dt})
+            for dt in steps
+        ]
     if curve == SEED_GAP:
         steps = (1e-3,) if costly or case.loop else (1e-3, 5e-4)
-        return [Setting(curve, f"base dt {dt:g}", {**seed, "solver.scheme": "newmark_gap_rule", "solver.max_step": dt})
-                for dt in steps]
+        return [
+            Setting(curve, f"base dt {dt:g}", {**seed, "solver.scheme": "newmark_gap_rule", "solver.max_step": dt})
+            for dt in steps
+        ]
     raise KeyError(curve)
 
 
@@ -184,6 +207,7 @@ def fmi_values(case: SceneCase, values: dict) -> dict:
 
 # ------------------------------------------------------------------ one run (in its own process)
 
+
 def _child(spec: dict) -> None:
     """Run one scene through the FMU and save the sampled outputs and the timings to spec['out']."""
     from fmpy.fmi1 import FMICallException
@@ -197,8 +221,9 @@ def _child(spec: dict) -> None:
         from fem_pendulum_fmu.masters.controller_loop import LoopSettings, drive
 
         loop = LoopSettings()
-        controller = NamedSlave(spec["pid"], "pid", {"Kp": loop.kp, "Ki": loop.ki, "Kd": loop.kd,
-                                                     "u_max": loop.drive_limit})
+        controller = NamedSlave(
+            spec["pid"], "pid", {"Kp": loop.kp, "Ki": loop.ki, "Kd": loop.kd, "u_max": loop.drive_limit}
+        )
     init = time.perf_counter() - t0
     h, n = COMM_STEP, int(round(spec["t_end"] / COMM_STEP))
     rows = [pendulum.get(*RECORDED)]
@@ -222,15 +247,27 @@ def _child(spec: dict) -> None:
         t = (k + 1) * h
         rows.append(pendulum.get(*RECORDED))
         substeps += pendulum.fmu.getInteger([pendulum.vr["solver.substeps"]])[0]
-        e = rows[-1][RECORDED.index("energy.total")] - rows[0][RECORDED.index("energy.total")] \
+        e = (
+            rows[-1][RECORDED.index("energy.total")]
+            - rows[0][RECORDED.index("energy.total")]
             - rows[-1][RECORDED.index("energy.torque_work")]
+        )
         if abs(e) > spec.get("abort_energy", math.inf):
             failed = f"diverged: energy error {e:.3g} J, over {DIVERGED:g} swing energies, at t = {t:.3f} s"
             break
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
     data = np.array(rows)
-    np.savez(spec["out"], time=np.arange(len(rows)) * h, data=data, wall=wall, cpu=cpu, init=init,
-             substeps=substeps, failed=json.dumps(failed), simulated=t)
+    np.savez(
+        spec["out"],
+        time=np.arange(len(rows)) * h,
+        data=data,
+        wall=wall,
+        cpu=cpu,
+        init=init,
+        substeps=substeps,
+        failed=json.dumps(failed),
+        simulated=t,
+    )
 
 
 @dataclass
@@ -249,20 +286,34 @@ def run_once(case: SceneCase, values: dict, fmus: tuple[Path, Path], t_end: floa
     """One run in a fresh process; the FMU's parameters are the scene's plus `values`."""
     with tempfile.TemporaryDirectory(prefix="speed_vs_error_") as tmp:
         out = Path(tmp) / "run.npz"
-        spec = {"fmu": str(fmus[0]), "pid": str(fmus[1]), "values": fmi_values(case, values), "loop": case.loop,
-                "abort_energy": DIVERGED * swing_energy(case),
-                "t_end": case.t_end if t_end is None else t_end, "out": str(out)}
+        spec = {
+            "fmu": str(fmus[0]),
+            "pid": str(fmus[1]),
+            "values": fmi_values(case, values),
+            "loop": case.loop,
+            "abort_energy": DIVERGED * swing_energy(case),
+            "t_end": case.t_end if t_end is None else t_end,
+            "out": str(out),
+        }
         proc = subprocess.run([sys.executable, __file__, "_run", json.dumps(spec)], capture_output=True, text=True)
         if proc.returncode != 0 or not out.exists():
             raise RuntimeError(f"run {case.name} {values} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}")
         with np.load(out) as z:
             data = z["data"]
-            return Run(z["time"], {name: data[:, i] for i, name in enumerate(RECORDED)}, float(z["wall"]),
-                       float(z["cpu"]), float(z["init"]), int(z["substeps"]), json.loads(str(z["failed"])),
-                       float(z["simulated"]))
+            return Run(
+                z["time"],
+                {name: data[:, i] for i, name in enumerate(RECORDED)},
+                float(z["wall"]),
+                float(z["cpu"]),
+                float(z["init"]),
+                int(z["substeps"]),
+                json.loads(str(z["failed"])),
+                float(z["simulated"]),
+            )
 
 
 # ------------------------------------------------------------------ metrics
+
 
 def swing_energy(case: SceneCase) -> float:
     """m g d (1 - cos 20 deg) of the scene's pendulum: the energy of the swing every scene is about."""
@@ -302,7 +353,7 @@ def first_rebound_peak(theta: np.ndarray, omega: np.ndarray, gap: np.ndarray, ba
     if len(reb) == 0:
         return math.nan
     k = reb[0] + 1
-    down = np.nonzero((omega[k:-1] > 0) & (omega[k + 1:] <= 0))[0]
+    down = np.nonzero((omega[k:-1] > 0) & (omega[k + 1 :] <= 0))[0]
     end = k + down[0] + 2 if len(down) else len(theta)
     return float(theta[k:end].max())
 
@@ -325,11 +376,15 @@ def metrics(run: Run, ref: dict, swing: float) -> dict:
     peak = first_rebound_peak(s["theta"], s["omega"], s["gap"])
     early = min(n, early_window(ref))
     return {
-        "theta_max": float(np.max(np.abs(dth))), "theta_rms": float(np.sqrt(np.mean(dth * dth))),
-        "theta_max_early": float(np.max(np.abs(dth[:early]))), "early_end": float(ref["time"][early - 1]),
+        "theta_max": float(np.max(np.abs(dth))),
+        "theta_rms": float(np.sqrt(np.mean(dth * dth))),
+        "theta_max_early": float(np.max(np.abs(dth[:early]))),
+        "early_end": float(ref["time"][early - 1]),
         "gap_max": float(np.max(np.abs(dgap))),
-        "rebound_peak": peak, "rebound_peak_error": peak - ref["rebound_peak"],
-        "energy": energy_error(s, swing), "penetration": penetration(s),
+        "rebound_peak": peak,
+        "rebound_peak_error": peak - ref["rebound_peak"],
+        "energy": energy_error(s, swing),
+        "penetration": penetration(s),
     }
 
 
@@ -346,9 +401,15 @@ def load_reference(name: str) -> dict | None:
 
 # ------------------------------------------------------------------ FMUs
 
+
 def build_fmus(folder: Path) -> tuple[Path, Path]:
-    run = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--output", str(folder / "FemPendulum.fmu")],
-                         cwd=ROOT, capture_output=True, text=True, check=True)
+    run = subprocess.run(
+        [sys.executable, str(ROOT / "build_fmu.py"), "--output", str(folder / "FemPendulum.fmu")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     fmu, pid = (Path(p) for p in run.stdout.split()[-2:])
     return fmu, pid
 
@@ -363,9 +424,12 @@ def code_version() -> str:
     """The checkout's commit when the row was measured (+ "dirty" with uncommitted changes); the FMU
     given with --fmu may have been built earlier (docs/speed_vs_error.md says from what)."""
     try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True,
-                               text=True).stdout.strip()
+        head = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True, text=True
+        ).stdout.strip()
         return head + (" dirty" if dirty else "")
     except OSError:
         return "unknown"
@@ -385,14 +449,16 @@ def machine() -> str:
 
 # ------------------------------------------------------------------ references
 
+
 def make_references(case_names: list[str], fmus: tuple[Path, Path]) -> None:
     """Run the reference levels (plus the default) of each scene; store the finest with the convergence check."""
     REFERENCES.mkdir(parents=True, exist_ok=True)
     for name in case_names:
         case = SCENE[name]
         swing = swing_energy(case)
-        levels = [("default", {"model.fidelity": "fem"})] + [(lab, {"model.fidelity": "fem", **v})
-                                                             for lab, v in REFERENCE_LEVELS]
+        levels = [("default", {"model.fidelity": "fem"})] + [
+            (lab, {"model.fidelity": "fem", **v}) for lab, v in REFERENCE_LEVELS
+        ]
         runs = {}
         for label, values in levels:
             run = run_once(case, values, fmus)
@@ -401,23 +467,34 @@ def make_references(case_names: list[str], fmus: tuple[Path, Path]) -> None:
             runs[label] = run
             print(f"{name} {label}: {run.wall:.0f} s wall, {run.substeps} internal steps", flush=True)
         checks = []
-        for (a, _), (b, _) in zip(levels[:-1], levels[1:]):
+        for (a, _), (b, _) in zip(levels[:-1], levels[1:], strict=False):
             ra, rb = runs[a], runs[b]
-            ref_b = {"time": rb.time, **rb.signals,
-                     "rebound_peak": first_rebound_peak(rb.signals["theta"], rb.signals["omega"], rb.signals["gap"])}
+            ref_b = {
+                "time": rb.time,
+                **rb.signals,
+                "rebound_peak": first_rebound_peak(rb.signals["theta"], rb.signals["omega"], rb.signals["gap"]),
+            }
             m = metrics(ra, ref_b, swing)
             m.update(coarse=a, fine=b, fine_penetration=penetration(rb.signals))
             checks.append(m)
         final_label, final_values = levels[-1]
         final = runs[final_label]
-        meta = {"scene": name, "description": case.description, "t_end": case.t_end, "level": final_label,
-                "values": final_values, "fmi_values": fmi_values(case, final_values), "wall_s": final.wall,
-                "substeps": final.substeps, "swing_energy": swing, "convergence": checks,
-                "command": f"python benchmarks/speed_vs_error.py references --scenes {name}",
-                "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="minutes"),
-                "machine": machine()}
-        np.savez_compressed(REFERENCES / f"{name}.npz", time=final.time, meta=json.dumps(meta),
-                            **final.signals)
+        meta = {
+            "scene": name,
+            "description": case.description,
+            "t_end": case.t_end,
+            "level": final_label,
+            "values": final_values,
+            "fmi_values": fmi_values(case, final_values),
+            "wall_s": final.wall,
+            "substeps": final.substeps,
+            "swing_energy": swing,
+            "convergence": checks,
+            "command": f"python benchmarks/speed_vs_error.py references --scenes {name}",
+            "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="minutes"),
+            "machine": machine(),
+        }
+        np.savez_compressed(REFERENCES / f"{name}.npz", time=final.time, meta=json.dumps(meta), **final.signals)
         print(json.dumps(meta, indent=1), flush=True)
 
 
@@ -442,6 +519,7 @@ def recheck_references(case_names: list[str], fmus: tuple[Path, Path]) -> None:
 
 # ------------------------------------------------------------------ sweep and quick mode
 
+
 def run_key(*parts: str) -> str:
     return "__".join(x.replace(" ", "_").replace(",", "") for x in parts)
 
@@ -458,11 +536,21 @@ def load_signals(path: str | Path) -> Run | None:
     if not Path(path).exists():
         return None
     with np.load(path) as z:
-        return Run(z["time"], {k: z[k] for k in z.files if k != "time"}, math.nan, math.nan, math.nan, 0, None,
-                   float(z["time"][-1]))
+        return Run(
+            z["time"],
+            {k: z[k] for k in z.files if k != "time"},
+            math.nan,
+            math.nan,
+            math.nan,
+            0,
+            None,
+            float(z["time"][-1]),
+        )
 
 
-def measure(case: SceneCase, setting: Setting, fmus, repeat: int, t_end: float | None = None, tag: str = "sweep") -> dict:
+def measure(
+    case: SceneCase, setting: Setting, fmus, repeat: int, t_end: float | None = None, tag: str = "sweep"
+) -> dict:
     """Time `repeat` runs (errors from the first: with model.threads 1 the runs are bit-identical)."""
     runs = [run_once(case, setting.values, fmus, t_end)]
     if not runs[0].failed:
@@ -470,14 +558,23 @@ def measure(case: SceneCase, setting: Setting, fmus, repeat: int, t_end: float |
     first = runs[0]
     signals = save_signals(run_key(tag, case.name, setting.curve, setting.label), first)
     ref = load_reference(case.name)
-    row = {"scene": case.name, "curve": setting.curve, "label": setting.label, "values": setting.values,
-           "t_end": case.t_end if t_end is None else t_end, "simulated": first.simulated,
-           "wall_per_sim": [r.wall / max(r.simulated, COMM_STEP) for r in runs],
-           "cpu_per_sim": [r.cpu / max(r.simulated, COMM_STEP) for r in runs],
-           "init_s": [r.init for r in runs], "substeps": first.substeps, "failed": first.failed,
-           "signals": str(signals), "code": code_version(),
-           "metrics": metrics(first, ref, swing_energy(case)) if ref is not None else None,
-           "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="minutes")}
+    row = {
+        "scene": case.name,
+        "curve": setting.curve,
+        "label": setting.label,
+        "values": setting.values,
+        "t_end": case.t_end if t_end is None else t_end,
+        "simulated": first.simulated,
+        "wall_per_sim": [r.wall / max(r.simulated, COMM_STEP) for r in runs],
+        "cpu_per_sim": [r.cpu / max(r.simulated, COMM_STEP) for r in runs],
+        "init_s": [r.init for r in runs],
+        "substeps": first.substeps,
+        "failed": first.failed,
+        "signals": str(signals),
+        "code": code_version(),
+        "metrics": metrics(first, ref, swing_energy(case)) if ref is not None else None,
+        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="minutes"),
+    }
     return row
 
 
@@ -521,9 +618,12 @@ def sweep(args, fmus) -> None:
         with RESULTS.open("a") as f:
             f.write(json.dumps(row) + "\n")
         m = row["metrics"] or {}
-        print(f"{case.name:16s} {s.curve:24s} {s.label:16s} wall/sim {np.median(row['wall_per_sim']):8.3f} s "
-              f"theta {m.get('theta_max', math.nan):.2e} energy {m.get('energy', math.nan):.1e} "
-              f"{'FAILED ' + row['failed'] if row['failed'] else ''}", flush=True)
+        print(
+            f"{case.name:16s} {s.curve:24s} {s.label:16s} wall/sim {np.median(row['wall_per_sim']):8.3f} s "
+            f"theta {m.get('theta_max', math.nan):.2e} energy {m.get('energy', math.nan):.1e} "
+            f"{'FAILED ' + row['failed'] if row['failed'] else ''}",
+            flush=True,
+        )
 
 
 # Accuracy a fidelity's default settings must reach on the scenes it is meant for (quick mode, tests),
@@ -565,14 +665,17 @@ def check_quick(rows: list[dict]) -> list[str]:
             problems.append(f"{where}: no stored reference")
         else:
             if not m["theta_max_early"] <= r["theta_bound"]:
-                problems.append(f"{where}: max theta error before the second impact {m['theta_max_early']:.3g} rad "
-                                f"> {r['theta_bound']:.3g}")
+                problems.append(
+                    f"{where}: max theta error before the second impact {m['theta_max_early']:.3g} rad "
+                    f"> {r['theta_bound']:.3g}"
+                )
             if not m["energy"] <= ENERGY_TARGET:
                 problems.append(f"{where}: energy error {m['energy']:.3g} > {ENERGY_TARGET:g}")
     return problems
 
 
 # ------------------------------------------------------------------ report
+
 
 def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
@@ -611,13 +714,17 @@ def main(argv: list[str] | None = None) -> None:
             rows = quick_rows(fmus, args.scenes)
             for r in rows:
                 m = r["metrics"] or {}
-                print(f"{r['scene']:16s} {r['curve']:8s} max theta error to {m.get('early_end', math.nan):.3f} s "
-                      f"{m.get('theta_max_early', math.nan):.2e} rad "
-                      f"(bound {r['theta_bound']:.0e}), energy error {m.get('energy', math.nan):.1e}, "
-                      f"wall/sim {r['wall_per_sim'][0]:.2f} s")
+                print(
+                    f"{r['scene']:16s} {r['curve']:8s} max theta error to {m.get('early_end', math.nan):.3f} s "
+                    f"{m.get('theta_max_early', math.nan):.2e} rad "
+                    f"(bound {r['theta_bound']:.0e}), energy error {m.get('energy', math.nan):.1e}, "
+                    f"wall/sim {r['wall_per_sim'][0]:.2f} s"
+                )
             problems = check_quick(rows)
-            print(f"quick mode: {len(rows)} runs in {time.perf_counter() - t0:.0f} s; "
-                  + ("all within bounds" if not problems else "FAILED:\n  " + "\n  ".join(problems)))
+            print(
+                f"quick mode: {len(rows)} runs in {time.perf_counter() - t0:.0f} s; "
+                + ("all within bounds" if not problems else "FAILED:\n  " + "\n  ".join(problems))
+            )
             if problems:
                 raise SystemExit(1)
 

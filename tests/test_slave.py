@@ -3,6 +3,7 @@
 (pythonfmu turns do_step's False into fmi2Discard, or into fmi2Error when the
 slave flagged the call; tests/test_fmu.py checks the statuses through the FMU.)
 """
+
 from __future__ import annotations
 
 import math
@@ -68,11 +69,17 @@ def test_do_step_advances_to_t_plus_h_with_the_torque_held(slave):
     assert slave.get_integer([slave.interface.by_name("solver.substeps").value_reference]) == [2]
 
 
-@pytest.mark.parametrize("t, h, torque, words", [
-    (0.0, 1e-3, math.nan, "torque = nan"), (0.0, 1e-3, math.inf, "torque = inf"), (0.0, 0.0, 0.0, "step size 0.0"),
-    (0.0, -1e-3, 0.0, "step size -0.001"), (0.0, math.nan, 0.0, "step size nan"),
-    (0.25, 1e-3, 0.0, "communication point 0.25"),
-])
+@pytest.mark.parametrize(
+    "t, h, torque, words",
+    [
+        (0.0, 1e-3, math.nan, "torque = nan"),
+        (0.0, 1e-3, math.inf, "torque = inf"),
+        (0.0, 0.0, 0.0, "step size 0.0"),
+        (0.0, -1e-3, 0.0, "step size -0.001"),
+        (0.0, math.nan, 0.0, "step size nan"),
+        (0.25, 1e-3, 0.0, "communication point 0.25"),
+    ],
+)
 def test_invalid_input_is_refused_with_an_error_and_the_state_kept(slave, t, h, torque, words):
     slave.torque = torque
     assert slave.do_step(t, h) is False
@@ -156,20 +163,25 @@ def test_package_log_records_reach_the_fmi_log_under_categories(slave):
     slave.model.advance = chatty_advance
     assert slave.do_step(0.0, 1e-3) is True
     assert [(m.msg, m.status, m.category) for m in slave.log_queue] == [
-        ("debug line", Fmi2Status.ok, "logAll"), ("warning line", Fmi2Status.warning, "logStatusWarning"),
-        ("error line", Fmi2Status.error, "logStatusError")]
+        ("debug line", Fmi2Status.ok, "logAll"),
+        ("warning line", Fmi2Status.warning, "logStatusWarning"),
+        ("error line", Fmi2Status.error, "logStatusError"),
+    ]
     slave_module.LOG.warning("outside a call")  # not routed: the handler is attached only during calls
     assert len(slave.log_queue) == 3
 
 
-@pytest.mark.parametrize("call, args, words", [
-    ("get_real", ([999],), "value reference 999 is no variable"),
-    ("set_real", ([999], [1.0]), "value reference 999 is no variable"),
-    ("get_integer", ([0],), "value reference 0 is torque, not of type Integer"),
-    ("set_boolean", ([0], [True]), "not of type Boolean"),
-    ("set_real", ([1], [0.5]), "theta (value reference 1) is an output and cannot be set"),
-    ("get_string", ([0],), "not of type String"),
-])
+@pytest.mark.parametrize(
+    "call, args, words",
+    [
+        ("get_real", ([999],), "value reference 999 is no variable"),
+        ("set_real", ([999], [1.0]), "value reference 999 is no variable"),
+        ("get_integer", ([0],), "value reference 0 is torque, not of type Integer"),
+        ("set_boolean", ([0], [True]), "not of type Boolean"),
+        ("set_real", ([1], [0.5]), "theta (value reference 1) is an output and cannot be set"),
+        ("get_string", ([0],), "not of type String"),
+    ],
+)
 def test_a_bad_value_reference_is_an_error_not_a_crash(slave, call, args, words):
     before = slave._get_fmu_state()
     result = getattr(slave, call)(*args)
