@@ -1,0 +1,69 @@
+"""The README's Python examples run as written (as scikit-fem's tests/test_examples.py runs its examples).
+
+Each ```python block of README.md runs as a script in a fresh interpreter, in a folder where
+`dist/FemPendulum.fmu` exists (the session's build), and must exit 0 and print what it promises.
+A new block needs an entry in CHECKS: the test fails on a block it does not know.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+BLOCK = re.compile(r"^```python\n(.*?)^```", re.MULTILINE | re.DOTALL)
+
+
+def python_blocks(text: str) -> list[str]:
+    return BLOCK.findall(text)
+
+
+def _numbers(stdout: str) -> list[float]:
+    return [float(word) for word in stdout.split()]
+
+
+def check_fmpy_api(stdout: str) -> None:
+    # theta at 1 s and the smallest gap, released from 15 deg against the rigid wall
+    theta, gap_min = _numbers(stdout)
+    # measured: theta(1 s) = 0.2447 rad, gap_min = -2.09e-5 m (21 um penetration at the impact)
+    assert abs(theta) <= math.radians(15.0) * 1.001  # no torque: never beyond the release angle
+    assert -1e-4 < gap_min < 0.0  # it reaches the wall, and the stiff penalty keeps it within 0.1 mm
+
+
+def check_physics(stdout: str) -> None:
+    assert all(math.isfinite(x) for x in _numbers(stdout))  # the block prints nothing; what it prints is finite
+
+
+# a word that identifies a block -> the check of its output
+CHECKS: dict[str, Callable[[str], None]] = {
+    "simulate_fmu(": check_fmpy_api,
+    "fem_pendulum_fmu.physics.models import create": check_physics,
+}
+
+
+def test_the_readme_has_python_examples():
+    blocks = python_blocks((ROOT / "README.md").read_text())
+    assert len(blocks) >= 2
+    for block in blocks:
+        assert sum(key in block for key in CHECKS) == 1, f"no check (or several) for this README block:\n{block}"
+
+
+@pytest.mark.slow  # measured under load: the fmpy example 31 s, the physics example 58 s (18 s of CPU)
+@pytest.mark.parametrize("index", range(len(python_blocks((ROOT / "README.md").read_text()))))
+def test_readme_example_runs(index, fmus, tmp_path):
+    block = python_blocks((ROOT / "README.md").read_text())[index]
+    (tmp_path / "dist").mkdir()
+    (tmp_path / "dist" / "FemPendulum.fmu").symlink_to(fmus[0])
+    script = tmp_path / "example.py"
+    script.write_text(block)
+    run = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, f"README example {index} failed:\n{block}\n{run.stderr[-3000:]}"
+    for key, check in CHECKS.items():
+        if key in block:
+            check(run.stdout)
