@@ -17,15 +17,13 @@ import math
 import numpy as np
 import pytest
 
+from fem_pendulum_fmu.physics.mass_properties import swing_energy
 from fem_pendulum_fmu.physics.models import create
 from fem_pendulum_fmu.physics.protocol import ModelState
 from fem_pendulum_fmu.physics.scene import compliant, stiff
+from fem_pendulum_fmu.physics.swing import peaks_after_first_contact
 
 G = 9.81
-
-
-def swing_energy(model, theta0=math.radians(20.0)):
-    return model.total_mass * G * model.com_depth * (1.0 - math.cos(theta0))
 
 
 def run(model, t_end, dt=1e-3, torque=0.0):
@@ -41,10 +39,7 @@ def run(model, t_end, dt=1e-3, torque=0.0):
 
 def rebound_peaks(out):
     """theta at local maxima after the first contact (sampled every communication step)."""
-    th = out[:, 1]
-    first = int(np.argmax(out[:, 4] < 0))
-    idx = [i for i in range(first + 1, len(th) - 1) if th[i] >= th[i - 1] and th[i] > th[i + 1]]
-    return np.degrees(th[idx])
+    return np.degrees(out[peaks_after_first_contact(out[:, 1], out[:, 4]), 1])
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +78,7 @@ def test_stiff_penetration_and_energy(stiff_run):
     penetration = -out[:, 4].min()
     assert 63e-6 * 0.85 <= penetration <= 63e-6 * 1.15, penetration
     err = np.max(np.abs(out[:, 5] - e0))
-    assert err <= 1e-3 * swing_energy(model), (err, swing_energy(model))
+    assert err <= 1e-3 * swing_energy(model.scene), (err, swing_energy(model.scene))
     assert np.all(out[:, 6] >= 0)
 
 
@@ -96,7 +91,7 @@ def test_stiff_rebounds_lose_energy_to_vibration_only(stiff_run):
     # the second impact meets a vibrating pendulum and depends on the vibration's phase
     # (18.3-19.45 degrees across meshes), but no impact may gain energy
     assert np.all(peaks[:2] <= 20.0 + 0.01), peaks
-    assert out[-1, 7] > 1e-3 * swing_energy(model)  # the vibration is there, in strain and kinetic energy
+    assert out[-1, 7] > 1e-3 * swing_energy(model.scene)  # the vibration is there, in strain and kinetic energy
 
 
 def test_seed_equivalent_stiffness_rebounds_to_20_degrees():
@@ -113,7 +108,7 @@ def test_free_swing_energy_and_small_amplitude_period():
     e0 = model.outputs().total
     out = run(model, 2.0)
     err = np.max(np.abs(out[:, 5] - e0))
-    assert err <= 1e-4 * swing_energy(model, theta0), err
+    assert err <= 1e-4 * swing_energy(model.scene), err
     th, t = out[:, 1], out[:, 0]
     up = [i for i in range(1, len(th)) if th[i - 1] < 0 <= th[i]]
     crossings = [t[i - 1] + (t[i] - t[i - 1]) * (-th[i - 1]) / (th[i] - th[i - 1]) for i in up]
@@ -136,7 +131,7 @@ def test_compliant_impact_feeds_vibration_and_keeps_energy():
     model = create(compliant())
     e0 = model.outputs().total
     out = run(model, 0.6)
-    swing = swing_energy(model)
+    swing = swing_energy(model.scene)
     assert np.max(np.abs(out[:, 5] - e0)) <= 1e-3 * swing
     assert out[:, 4].min() < 0  # it hit the wall
     peak = rebound_peaks(out)[0]
@@ -204,7 +199,7 @@ def test_deformable_wall_impact_is_finite_and_keeps_energy():
     out = run(model, 0.25)
     assert np.all(np.isfinite(out))
     assert out[:, 4].min() < 0  # the impact happened inside the window
-    assert np.max(np.abs(out[:, 5] - e0)) <= 10 * 1e-3 * swing_energy(model)
+    assert np.max(np.abs(out[:, 5] - e0)) <= 10 * 1e-3 * swing_energy(model.scene)
     assert out[-1, 2] > 0  # and the pendulum rebounds
 
 

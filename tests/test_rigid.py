@@ -24,10 +24,12 @@ import numpy as np
 import pytest
 
 from fem_pendulum_fmu.physics import rigid_contact as rc
+from fem_pendulum_fmu.physics.mass_properties import swing_energy
 from fem_pendulum_fmu.physics.models import create
 from fem_pendulum_fmu.physics.protocol import ModelState, StepFailed
 from fem_pendulum_fmu.physics.models.rigid import RigidModel
 from fem_pendulum_fmu.physics.scene import WallBlock, stiff
+from fem_pendulum_fmu.physics.swing import peaks_after_first_contact
 
 G = 9.81
 DT = 1e-3  # communication step of the FMU masters
@@ -49,10 +51,6 @@ def run(model, t_end, torque=0.0, dt=DT):
         rows.append((o.time, o.theta, o.omega, o.gap, model.last_min_gap, o.total - o.torque_work - e0,
                      o.contact_force, o.substeps))
     return np.array(rows)
-
-
-def swing_energy(model, theta0=math.radians(20.0)):
-    return model.total_mass * G * model.com_depth * (1.0 - math.cos(theta0))
 
 
 def energy_bound(model, out, kinetic_max):
@@ -97,12 +95,10 @@ def stiff_run():
 def test_rebounds_to_release_angle(stiff_run):
     model, out, _ = stiff_run
     th = out[:, 1]
-    first = int(np.argmax(out[:, 4] < 0))
     peaks = []
-    for i in range(first + 1, len(th) - 1):
-        if th[i] >= th[i - 1] and th[i] > th[i + 1]:
-            a, b, c = th[i - 1], th[i], th[i + 1]  # parabola through three samples
-            peaks.append(b + (a - c) ** 2 / (8 * (2 * b - a - c)))
+    for i in peaks_after_first_contact(th, out[:, 4]):
+        a, b, c = th[i - 1], th[i], th[i + 1]  # parabola through three samples
+        peaks.append(b + (a - c) ** 2 / (8 * (2 * b - a - c)))
     assert len(peaks) >= 3
     assert np.max(np.abs(np.degrees(peaks) - 20.0)) < 0.01
     assert int(np.sum(np.diff((out[:, 4] < 0).astype(int)) == 1)) == 4  # four impacts in 2 s
@@ -131,8 +127,8 @@ def test_first_contact_time_and_penetration(stiff_run):
 def test_energy_conserved_through_impacts(stiff_run):
     model, out, _ = stiff_run
     err = np.max(np.abs(out[:, 5]))
-    bound = energy_bound(model, out, swing_energy(model))
-    assert bound < 1e-9 * swing_energy(model)  # the bound itself is tiny: < 1e-9 of the swing energy
+    bound = energy_bound(model, out, swing_energy(model.scene))
+    assert bound < 1e-9 * swing_energy(model.scene)  # the bound itself is tiny: < 1e-9 of the swing energy
     assert err <= bound
     assert np.all(out[:, 6] >= 0.0)
 

@@ -1,6 +1,6 @@
 """Rigid pendulum (fidelity "rigid"): one rotation about the pivot, the same wall law as the FE model.
 
-Mass, centre of mass and moment of inertia are integrated over the very mesh
+Mass, centre of mass and moment of inertia come from mass_properties.py, integrated over the very mesh
 geometry the FE model uses (geometry.make_mesh, fine and highly curved), so
 the two fidelities describe the same body. Contact is the penalty law of
 contact.py on the head's outer arc, integrated exactly by rigid_contact.py.
@@ -18,45 +18,19 @@ angle. Step sizes (contact onset, ~30 steps per contact) come from stepping.py.
 from __future__ import annotations
 
 import math
-from functools import lru_cache
 
 from .. import rigid_contact
 from ..contact_time import effective_mass
-from ..geometry import make_mesh
-from ..scene import PendulumGeometry, Scene, refuse_deformable_wall, validate
+from ..mass_properties import gravity_moment, mass_properties
+from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
 from ..protocol import ModelState, Outputs
-
-# Mesh for the mass properties: converged to ~1e-10 relative (0.005/order 5 agrees to 1e-10).
-MASS_MESH_SIZE = 0.004
-MASS_MESH_ORDER = 6
 
 NEWTON_MAX_IT = 80
 ENERGY_ROUNDOFF = 1e-15  # relative energy imbalance per step accepted as converged
 SMALL_STEP = 1e-9  # |q1 - q0| (rad) below which the contact difference quotient is replaced by a derivative
 APPROACH_SPEED_FLOOR = 1e-3  # m/s: a head at rest near the block is assumed to approach at least this fast
 NEAR_FRACTION = 1.0  # contact scales are reported while the gap is below this many head radii
-
-
-@lru_cache(maxsize=16)
-def geometry_moments(geo: PendulumGeometry) -> tuple[float, float, float]:
-    """(area, first moment int y dA, polar moment int x^2 + y^2 dA) of the pendulum face (symmetric
-    about x = 0 by construction). Times rho h these are the mass, m y_com and I about the pivot;
-    they depend on the geometry only, so they are computed once per geometry and process."""
-    from dataclasses import asdict
-
-    from ..cache import load_or_build_json
-
-    def integrate() -> list[float]:
-        from ngsolve import CF, Integrate, x, y
-
-        mesh = make_mesh(geo, MASS_MESH_SIZE, MASS_MESH_ORDER)
-        order = 2 * MASS_MESH_ORDER + 2
-        return [float(Integrate(CF(1.0), mesh, order=order)), float(Integrate(y, mesh, order=order)),
-                float(Integrate(x * x + y * y, mesh, order=order))]
-
-    key = {"geometry": asdict(geo), "mesh_size": MASS_MESH_SIZE, "order": MASS_MESH_ORDER}
-    return tuple(load_or_build_json("moments", key, integrate))
 
 
 class RigidModel(SteppedModel):
@@ -80,12 +54,9 @@ class RigidModel(SteppedModel):
         self.scene = validate(scene)
         refuse_deformable_wall(scene, self.fidelity)
         geo, mat = scene.geometry, scene.pendulum
-        area, sy, polar = geometry_moments(geo)
-        rho_h = mat.rho * mat.thickness
-        self.total_mass = rho_h * area
-        self.com_depth = -sy / area
-        self.inertia = rho_h * polar
-        self._mgd = self.total_mass * scene.gravity * self.com_depth
+        body = mass_properties(scene)
+        self.total_mass, self.com_depth, self.inertia = body.total_mass, body.com_depth, body.inertia
+        self._mgd = gravity_moment(scene)
         self.block = scene.block
         self.contact_on = scene.wall.kind == "rigid" and scene.contact.stiffness > 0.0
         self._hk = mat.thickness * scene.contact.stiffness

@@ -24,6 +24,7 @@ import logging
 import math
 from dataclasses import dataclass
 
+from ..mass_properties import gravity_moment, swing_energy
 from ..modes import first_elastic_frequency, modal_basis
 from ..scene import Scene
 from .reduced import uses_linear_strain
@@ -66,7 +67,7 @@ def choose(scene: Scene) -> Choice:
             if f_top < f_band:
                 return Choice("fem", why)
             return soft_or_reduced(scene, why)
-    f_swing = math.sqrt(max(gravity_moment(rigid), 1e-300) / rigid.inertia) / (2.0 * math.pi)
+    f_swing = math.sqrt(max(gravity_moment(scene), 1e-300) / rigid.inertia) / (2.0 * math.pi)
     ratio = f1 / f_swing
     if ratio >= RIGID_SWING_RATIO:
         return Choice("rigid", f"no impact; f1 = {f1:.4g} Hz is {ratio:.3g} times the swing frequency")
@@ -81,19 +82,14 @@ def soft_or_reduced(scene: Scene, why: str) -> Choice:
     return Choice("fem", why + "; the body is soft (E / rho <= 1e5 m^2/s^2): large deflections need fem")
 
 
-def gravity_moment(rigid) -> float:
-    """m g d: the largest gravity moment about the pivot."""
-    return rigid.total_mass * rigid.scene.gravity * rigid.com_depth
-
-
 def impact_speed(rigid) -> float:
     """Angular speed at theta = 0, where the head touches the wall: that of the released swing, and
     at least that of a release from horizontal, since the torque input (unknown at initialisation)
     can drive a pendulum released at rest against the wall into it (the controller loop does).
     Energy balance of the rigid body."""
-    mgd = gravity_moment(rigid)
-    energy = 0.5 * rigid.inertia * rigid.scene.omega0 ** 2 + mgd * (1.0 - math.cos(rigid.scene.theta0))
-    return math.sqrt(2.0 * max(energy, mgd * (1.0 - math.cos(DESIGN_RELEASE))) / rigid.inertia)
+    scene = rigid.scene
+    energy = 0.5 * rigid.inertia * scene.omega0 ** 2 + swing_energy(scene)
+    return math.sqrt(2.0 * max(energy, swing_energy(scene, DESIGN_RELEASE)) / rigid.inertia)
 
 
 def resolve(scene: Scene) -> str:
