@@ -209,5 +209,6 @@ def test_von_mises_only_when_asked_and_plausible():
     a, b = quiet.advance(0.01, 0.0), asked.advance(0.01, 0.0)
     assert a.von_mises_max == 0.0
     # rubber hanging under its own weight: stress of the order rho g L (a few kPa), far below E
-    assert 1e2 < b.von_mises_max < 1e5, b.von_mises_max
+    # (rho g L = 2.9 kPa with L = 0.3 m, pivot to the bottom of the head); measured 3143 Pa at 0.01 s
+    assert b.von_mises_max == pytest.approx(3143.0, rel=0.05), b.von_mises_max
     assert b.theta == a.theta  # asking for stress does not change the dynamics

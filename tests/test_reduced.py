@@ -125,5 +125,6 @@ def test_von_mises_of_the_modal_field_only_when_asked_and_as_fem_reports_it():
         red_peaks.append(asked.advance(k * DT, 0.0).von_mises_max)
         fem_peaks.append(fem.advance(k * DT, 0.0).von_mises_max)
     for window in (slice(0, 200), slice(235, 260)):  # swinging; after the impact at 0.24 s
-        assert max(red_peaks[window]) == pytest.approx(max(fem_peaks[window]), rel=0.1)
+        # measured: 0.59 % apart swinging (9.44e4 / 9.50e4 Pa), 0.91 % after the impact (1.416e7 / 1.429e7 Pa)
+        assert max(red_peaks[window]) == pytest.approx(max(fem_peaks[window]), rel=0.02)
     assert max(red_peaks[235:]) > 10 * max(red_peaks[:200])
