@@ -119,7 +119,12 @@ def test_fmpy_command_line_with_input_file_and_start_values(fmus, tmp_path):
                    check=True, capture_output=True, text=True)
     data = np.genfromtxt(out, delimiter=",", names=True)
     assert abs(data["theta"][0] - 0.1) < 1e-6
-    assert data["energytorque_work"][-1] != 0.0  # the pulse did work
+    # -1 N.m from 0.1 s to 0.3 s does the work -1 N.m x (theta(0.3) - theta(0.1)): positive here, the pendulum
+    # ends the pulse nearer the wall (theta 0.037) than it began it (0.079), one rebound in between; measured
+    # 0.04202 J against 0.04182 J (0.5 %: theta is the mass-weighted proxy angle, not the hinge's rotation)
+    pulse_work = -1.0 * (np.interp(0.3, data["time"], data["theta"]) - np.interp(0.1, data["time"], data["theta"]))
+    assert pulse_work > 0.0
+    assert data["energytorque_work"][-1] == pytest.approx(pulse_work, rel=0.02)
 
 
 @isolated
@@ -358,8 +363,12 @@ def test_open_loop_master_writes_results_and_plot(fmus, tmp_path):
     data = np.genfromtxt(out.with_suffix(".csv"), delimiter=",", names=True)
     assert len(data) == 1001 and data["time"][-1] == pytest.approx(1.0)
     assert data["gap"].min() < 0 and data["contact_force"].max() > 0  # it reached the wall
-    # -1 N.m from 0.1 s to 0.3 s: the pulse did negative work towards the wall
-    assert data["energytorque_work"][-1] != 0.0
+    # -1 N.m from 0.1 s to 0.3 s: the pendulum rebounds from the wall during the pulse and ends it at a larger
+    # angle, so the pulse did negative work, -1 N.m x (theta(0.3) - theta(0.1)); measured -0.010613 J, equal to
+    # that product to all 16 digits (rigid: theta is the hinge's rotation)
+    pulse_work = -1.0 * (np.interp(0.3, data["time"], data["theta"]) - np.interp(0.1, data["time"], data["theta"]))
+    assert pulse_work < 0.0
+    assert data["energytorque_work"][-1] == pytest.approx(pulse_work, rel=1e-9)
     balance = data["energytotal"] - data["energytotal"][0] - data["energytorque_work"]
     assert np.abs(balance).max() < 1e-6 * data["energytotal"].std() + 1e-9
     png = out.with_suffix(".png")
@@ -387,6 +396,8 @@ def test_auto_fidelity_is_logged_and_runs_the_model_it_names(fmus, tmp_path):
         auto.step(1e-2, -1.0)
         reduced.step(1e-2, -1.0)
         assert auto.get(*names) == reduced.get(*names)
-    assert auto.get("energy.strain")[0] > 0.0  # elastic modes are live
+    # elastic modes are live: the impact at 0.15 s set them vibrating. Measured at 0.3 s 2.24e-2 J; after the impact
+    # the sampled strain energy stays within 5.5e-3..2.9e-2 J, before it (swinging) below 2.3e-5 J
+    assert auto.get("energy.strain")[0] > 1e-3
     auto.close()
     reduced.close()
