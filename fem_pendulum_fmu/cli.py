@@ -36,7 +36,7 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
 
 def parser() -> argparse.ArgumentParser:
     from .fmi import host_env, interface
-    from .masters import controller_loop, open_loop
+    from .masters import controller_loop, open_loop, sweep
 
     top = argparse.ArgumentParser(
         prog="fem-pendulum", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -56,6 +56,12 @@ def parser() -> argparse.ArgumentParser:
             "a PID controller FMU in the loop, CSV and plot",
             controller_loop.add_arguments,
             controller_loop.command,
+        ),
+        (
+            "sweep",
+            "a grid or table of parameter values through the FMU on Dask, results table and plot",
+            sweep.add_arguments,
+            sweep.command,
         ),
         (
             "host-env",

@@ -1,0 +1,104 @@
+"""`fem-pendulum sweep`: a grid or a table of parameter values through the FMU on Dask.
+
+    fem-pendulum sweep --param pendulum.E=1e6,1e7,2.1e11 --param theta0=0.2,0.35 \\
+        --set model.fidelity=rigid --stop-time 1 --out out/sweep [--workers 2 | --scheduler tcp://HOST:8786]
+
+Writes OUT/results.parquet (one row a sample), OUT/series.parquet (the time
+series, keyed by sample_id), OUT/summary.png, and OUT/results.csv with --csv.
+Started again with the same OUT, it runs only the samples OUT does not hold.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+from pathlib import Path
+
+from ..open_loop import DEFAULT_FMU
+
+EXTRA = ("dask", "distributed", "pandas", "pyarrow")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--fmu", type=Path, default=DEFAULT_FMU)
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=V1,V2,...",
+        help="a grid axis: the samples are the product of all axes (enumerations by item name)",
+    )
+    parser.add_argument(
+        "--set", action="append", default=[], metavar="NAME=VALUE", help="a parameter value every sample shares"
+    )
+    parser.add_argument("--table", type=Path, help="CSV, one row a sample, columns parameter names (and torque)")
+    parser.add_argument("--torque", type=Path, help="CSV time,torque for every sample (a table's torque column wins)")
+    parser.add_argument("--stop-time", type=float, default=2.0)
+    parser.add_argument("--step", type=float, default=1e-3, help="communication step = output interval (s)")
+    parser.add_argument("--outputs", default="", metavar="NAME,...", help="outputs kept in the series (default all)")
+    parser.add_argument("--workers", type=int, help="local cluster of N worker processes (default: the cores)")
+    parser.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786")
+    parser.add_argument("--out", type=Path, default=Path("out") / "sweep", help="output folder (resumed if it exists)")
+    parser.add_argument("--csv", action="store_true", help="also write results.csv")
+    parser.add_argument("--retry-failed", action="store_true", help="run again the samples that ended in error")
+    parser.add_argument("--plot", default="max_contact_force", metavar="FIGURE", help="figure of the summary plot")
+    parser.add_argument("--x", help="parameter on the plot's x axis (default: the first --param)")
+    parser.add_argument("--y", help="a second parameter, shown as the y axis (figure as colour)")
+    parser.add_argument("--no-progress", action="store_true")
+
+
+def _need_extra() -> None:
+    missing = [name for name in EXTRA if importlib.util.find_spec(name) is None]
+    if missing:
+        raise SystemExit(f"fem-pendulum sweep needs {', '.join(missing)}: pip install 'fem_pendulum_fmu[sweep]'")
+
+
+def _samples(args: argparse.Namespace) -> list:
+    from . import samples
+
+    fixed = dict(samples.parse_param(item) for item in args.set)
+    if any(len(values) != 1 for values in fixed.values()):
+        raise SystemExit("--set takes one value: NAME=VALUE (a list is a grid axis: --param)")
+    if args.table and args.param:
+        raise SystemExit("give the samples as --param axes or as a --table, not both")
+    rows = samples.read_table(args.table) if args.table else samples.grid([samples.parse_param(p) for p in args.param])
+    rows = [{**row, **{name: values[0] for name, values in fixed.items()}} for row in rows]
+    return samples.samples(rows, args.torque)
+
+
+def command(args: argparse.Namespace) -> None:
+    _need_extra()
+    from .driver import SweepSettings, run_sweep
+    from .plot import FIGURES, summary_plot
+
+    if args.plot not in FIGURES:
+        raise SystemExit(f"--plot {args.plot!r}: choose one of {', '.join(FIGURES)}")
+    try:
+        chosen = _samples(args)
+    except ValueError as exc:
+        raise SystemExit(str(exc)) from None
+    settings = SweepSettings(
+        fmu=args.fmu,
+        out=args.out,
+        stop_time=args.stop_time,
+        step=args.step,
+        outputs=tuple(n for n in args.outputs.split(",") if n),
+        workers=args.workers,
+        scheduler=args.scheduler,
+        csv=args.csv,
+        progress=not args.no_progress,
+        retry_failed=args.retry_failed,
+    )
+    table = run_sweep(chosen, settings)
+    ok = int((table["status"] == "ok").sum())
+    print(
+        f"{len(table)} samples: {ok} ok, {len(table) - ok} error; wrote {args.out / 'results.parquet'} and "
+        f"{args.out / 'series.parquet'}"
+    )
+    swept = [name for name in table.columns if name in chosen[0].values and table[name].nunique() > 1]
+    x = args.x or (swept[0] if swept else None)
+    if x is not None:
+        y = args.y or (swept[1] if len(swept) > 1 and not args.x else None)
+        print(summary_plot(table, args.plot, x, y, args.out / "summary.png"))
+    for row in table[table["status"] != "ok"].itertuples():
+        print(f"  {row.sample_id}: {row.message}")

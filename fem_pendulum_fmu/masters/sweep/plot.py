@@ -1,0 +1,69 @@
+"""The sweep's summary plot: one figure of the results table against one or two swept parameters (PNG)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+FIGURES = (
+    "first_contact_time",
+    "largest_penetration",
+    "first_rebound_peak",
+    "max_contact_force",
+    "energy_error",
+    "rebounds",
+    "wall_time",
+)
+
+
+def _numeric(column: pd.Series) -> tuple[np.ndarray, list[str] | None]:
+    """Values to plot and, for a column of names (enumerations), the tick labels."""
+    if pd.api.types.is_numeric_dtype(column):
+        return column.to_numpy(float), None
+    labels = sorted(column.astype(str).unique())
+    return column.astype(str).map(labels.index).to_numpy(float), labels
+
+
+def summary_plot(table: pd.DataFrame, figure: str, x: str, y: str | None, path: Path) -> Path:
+    """`figure` against parameter `x` (a curve), or against `x` and `y` (colour); failed samples as red crosses.
+
+    A logarithmic axis is used for a parameter whose positive values span more than two decades (moduli,
+    stiffnesses)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = table["status"] == "ok"
+    xs, xlabels = _numeric(table[x])
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    if y is None:
+        order = np.argsort(xs[ok.to_numpy()], kind="stable")
+        ax.plot(xs[ok.to_numpy()][order], table.loc[ok, figure].to_numpy(float)[order], "o-")
+        ax.plot(xs[~ok.to_numpy()], np.zeros((~ok).sum()), "rx", label="failed")
+        ax.set_ylabel(figure)
+    else:
+        ys, ylabels = _numeric(table[y])
+        dots = ax.scatter(xs[ok.to_numpy()], ys[ok.to_numpy()], c=table.loc[ok, figure].to_numpy(float), s=80)
+        fig.colorbar(dots, ax=ax, label=figure)
+        ax.plot(xs[~ok.to_numpy()], ys[~ok.to_numpy()], "rx", label="failed")
+        _axis(ax.set_yscale, ax.set_yticks, ys, ylabels)
+        ax.set_ylabel(y)
+    _axis(ax.set_xscale, ax.set_xticks, xs, xlabels)
+    ax.set_xlabel(x)
+    ax.set_title(f"{figure}: {ok.sum()} ok, {(~ok).sum()} failed")
+    if (~ok).any():
+        ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _axis(set_scale: object, set_ticks: object, values: np.ndarray, labels: list[str] | None) -> None:
+    if labels is not None:
+        set_ticks(range(len(labels)), labels)  # type: ignore[operator]
+    elif (values > 0).all() and values.max() > 100 * values.min():
+        set_scale("log")  # type: ignore[operator]
