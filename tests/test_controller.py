@@ -92,8 +92,7 @@ def test_drive_limits_the_torque():
 
 
 def test_pid_saturates_and_stops_integrating():
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fem_pendulum_fmu" / "masters"))
-    from fem_pendulum_pid_entry import Pid
+    from fem_pendulum_fmu.masters.pid.fem_pendulum_pid_entry import Pid
 
     pid = Pid(kp=10.0, ki=4.0, kd=0.0, u_max=15.0)
     assert pid.update(1.0, 0.0, 1e-3) == pytest.approx(10.004)

@@ -356,7 +356,7 @@ def test_a_state_of_other_parameters_is_refused(fmus, tmp_path):
 def test_open_loop_master_writes_results_and_plot(fmus, tmp_path):
     fmu, _ = fmus
     out = tmp_path / "run"
-    run = subprocess.run([sys.executable, "-m", "fem_pendulum_fmu.masters.open_loop", "--fmu", str(fmu),
+    run = subprocess.run([str(Path(sys.executable).parent / "fem-pendulum"), "run", "--fmu", str(fmu),
                           "--torque", str(ROOT / "examples" / "torque_pulse.csv"), "--stop-time", "1.0",
                           "--set", "model.fidelity=2", "--out", str(out)], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr[-3000:]

@@ -121,6 +121,6 @@ def test_readme_variable_table_is_generated_from_the_template():
     start, end = "<!-- interface-table:start -->", "<!-- interface-table:end -->"
     table = text[text.index(start) + len(start):text.index(end)].strip()
     assert table == interface.markdown_table().strip()
-    printed = subprocess.run([sys.executable, "-m", "fem_pendulum_fmu.fmi.interface", "--markdown"], check=True,
+    printed = subprocess.run([str(Path(sys.executable).parent / "fem-pendulum"), "interface", "--markdown"], check=True,
                              capture_output=True, text=True).stdout
     assert printed.strip() == table
