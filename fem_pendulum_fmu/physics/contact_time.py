@@ -6,10 +6,33 @@ Shared by every fidelity (stepping.py asks a model for them through
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 ARM_FLOOR = 1e-3  # share of the head centre's depth below which a contact normal's moment arm is not trusted
+
+
+@dataclass(frozen=True)
+class ClosestPoint:
+    """The boundary point closest to (or deepest inside) the wall block, among sampled points."""
+
+    points: np.ndarray  # (P, 2) positions of the sampled boundary points
+    gaps: np.ndarray  # (P,) their signed distances to the block, negative inside
+    index: int  # the closest point
+    normal: tuple[float, float]  # the block's outward normal there (the gap's gradient)
+    rate: float  # d gap / dt of the closest point
+
+    @property
+    def gap(self) -> float:
+        return float(self.gaps[self.index])
+
+    @property
+    def arm(self) -> float:
+        """The normal's moment arm about the pivot, x n_y - y n_x at the closest point."""
+        nx, ny = self.normal
+        p = self.points[self.index]
+        return p[0] * ny - p[1] * nx
 
 
 def effective_mass(inertia: float, arm: float, depth: float) -> float:

@@ -219,8 +219,9 @@ def mass_orthonormal(vectors: np.ndarray, M, drop: float = 1e-10) -> np.ndarray:
 
 def compute_modes(scene: Scene) -> ModalBasis:
     """Eigenmodes and load corrections of the hinged pendulum, reduced to a ModalBasis."""
-    from ngsolve import (BND, CF, BilinearForm, GridFunction, InnerProduct, Integrate, IntegrationRule,
-                         LinearForm, SEGM, ds, dx, specialcf, x, y)
+    from ngsolve import CF, BilinearForm, GridFunction, InnerProduct, Integrate, LinearForm, ds, dx, specialcf, x, y
+
+    from .fe_boundary import head_points, hinge_torque_load
 
     mat = scene.pendulum
     h, rho = mat.thickness, mat.rho
@@ -235,9 +236,7 @@ def compute_modes(scene: Scene) -> ModalBasis:
     l_pos = functional(rho * h * InnerProduct(pos, v))
     l_rot = functional(rho * h * (x * v[1] - y * v[0]))
     N = specialcf.normal(2)
-    weight = x / scene.geometry.rod_half_width
-    arm = x * N[1] - y * N[0]
-    torque_scale = 1.0 / Integrate(weight * arm, mesh, BND, definedon=mesh.Boundaries("hinge"))
+    weight, torque_scale = hinge_torque_load(mesh, scene.geometry)
     l_torque = functional(torque_scale * weight * InnerProduct(N, v), ds("hinge"))
     statics = load_corrections(scene, V, K, C, l_rot, l_torque)
     phi, omega2 = rayleigh_ritz(np.column_stack([eigen, statics]), K, M)
@@ -246,17 +245,13 @@ def compute_modes(scene: Scene) -> ModalBasis:
     # gyro_ij = int rho h phi_i x phi_j = (cross phi_i) . phi_j
     cross = _scipy(BilinearForm(rho * h * (u[0] * v[1] - u[1] * v[0]) * dx).Assemble().mat)
 
-    rule = IntegrationRule(SEGM, HEAD_RULE_ORDER)
-    points = mesh.MapToAllElements(rule, mesh.Boundaries("head"))
-    head_X = np.array(pos(points))
+    head = head_points(mesh, HEAD_RULE_ORDER)
+    head_X = np.array(pos(head.points))
     gf = GridFunction(V)
     head_phi = np.empty((len(head_X), 2, phi.shape[1]))
     for j in range(phi.shape[1]):
         gf.vec.FV().NumPy()[:] = phi[:, j]
-        head_phi[:, :, j] = gf(points)
-    lengths = Integrate(CF(1.0), mesh, BND, element_wise=True).NumPy()
-    head_els = [el.nr for el in mesh.Elements(BND) if el.mat == "head"]
-    head_weights = np.concatenate([lengths[e] * np.array([ip.weight for ip in rule]) for e in head_els])
+        head_phi[:, :, j] = gf(head.points)
 
     tisserand = l_rot @ phi
     inertia0 = float(Integrate(rho * h * (x * x + y * y), mesh))
@@ -267,4 +262,4 @@ def compute_modes(scene: Scene) -> ModalBasis:
         first_moment=np.array([float(Integrate(rho * h * x, mesh)), float(Integrate(rho * h * y, mesh))]),
         a=l_pos @ phi, gyro=(cross @ phi).T @ phi, moment_modes=np.array([l_x @ phi, l_y @ phi]),
         tisserand=tisserand, torque_modes=l_torque @ phi, head_X=head_X, head_phi=head_phi,
-        head_weights=head_weights, phi=phi)
+        head_weights=head.weights, phi=phi)

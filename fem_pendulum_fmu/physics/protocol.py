@@ -111,4 +111,10 @@ def check_advance_args(time: float, t_end: float, torque: float) -> None:
         raise ValueError(f"t_end = {t_end!r} is not allowed: it must be a finite time after the current time {time!r}")
 
 
+def restored_min_gap(state: ModelState, outputs: Outputs) -> float:
+    """The gap_min output a model had when `state` was taken (its scalar "last_min_gap"; a state
+    stored without one: the gap of `outputs`, those of the restored state)."""
+    return float(state.scalars.get("last_min_gap", outputs.gap))
+
+
 OUTPUT_FIELDS = tuple(f.name for f in fields(Outputs))

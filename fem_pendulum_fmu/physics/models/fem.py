@@ -31,9 +31,10 @@ from .. import material
 from ..geometry import make_mesh
 from ..scene import Scene, validate
 from .. import seed_stepping
-from ..contact_time import contact_time_scale, effective_mass
+from ..contact_time import ClosestPoint, contact_time_scale, effective_mass
+from ..fe_boundary import head_points, hinge_torque_load
 from ..stepping import StepControl, advance as advance_steps
-from ..protocol import ModelState, Outputs, StepFailed, check_advance_args
+from ..protocol import ModelState, Outputs, StepFailed, check_advance_args, restored_min_gap
 
 NEWTON_MAX_IT = 12
 DEFORMABLE_WALL_FACE_SIZE = 0.005  # m; contact zone on the wall face is ~5 mm wide
@@ -85,6 +86,7 @@ class FemModel:
         self._state = self._initial_state()
         self._substeps = 0
         self._outputs = self._compute_outputs(self._state, 0.0, 0)
+        self.last_min_gap = self._outputs.gap
 
     # ------------------------------------------------------------------ set-up
     def _build(self) -> None:
@@ -139,9 +141,7 @@ class FemModel:
         a += (q1 * du[0] + q2 * du[1] + p1 * u[0] + p2 * u[1]) * ngs.ds("hinge")
         # follower torque: line load p(X) * Cof(F_mid) N on the hinge edge, moment = torque
         N = specialcf.normal(2)
-        weight = x / sc.geometry.rod_half_width
-        arm = x * N[1] - y * N[0]
-        self._torque_scale = 1.0 / Integrate(weight * arm, mesh, BND, definedon=mesh.Boundaries("hinge"))
+        weight, self._torque_scale = hinge_torque_load(mesh, sc.geometry)
         if self.newmark:
             Fm_b = Id(2) + Grad(u).Trace()
         else:
@@ -223,14 +223,12 @@ class FemModel:
             self._contact_energy_cf = h * wall_contact.penalty_energy(d, k)
             self._contact_force_cf = h * ngs.IfPos(d, k * d, 0.0) * (-grad)
         # points on the head boundary for the gap: positions X + u evaluated vectorised
-        rule = IntegrationRule(SEGM, self._contact_order)
-        self._head_points = mesh.MapToAllElements(rule, mesh.Boundaries("head"))
+        head = head_points(mesh, self._contact_order)
+        self._head_points = head.points
         self._head_X = pos(self._head_points)
-        lengths = Integrate(CF(1.0), mesh, BND, element_wise=True).NumPy()
-        head_els = [el.nr for el in mesh.Elements(BND) if el.mat == "head"]
-        self._head_weights = np.concatenate([lengths[e] * np.array([ip.weight for ip in rule]) for e in head_els])
-        self._head_elements = np.array(head_els)
-        self._point_element = np.repeat(np.arange(len(head_els)), len(rule))
+        self._head_weights = head.weights
+        self._head_elements = head.elements
+        self._point_element = np.repeat(np.arange(len(head.elements)), len(head.rule))
         self._nV = V.ndof
 
     def _initial_state(self) -> FemState:
@@ -458,8 +456,8 @@ class FemModel:
         pen = np.where(level, np.maximum(b.x_max + shift[:, 0] - p[:, 0], 0.0), 0.0)
         return 0.5 * h * k * float(self._head_weights @ (pen * pen)), h * k * float(self._head_weights @ pen)
 
-    def _closest_point(self, xs: FemState):
-        """(positions, signed distances, normal at and rate of the closest head point, its index).
+    def _closest_point(self, xs: FemState) -> ClosestPoint:
+        """The head point closest to the (deformed) wall and its rate.
 
         The stepper asks for the gap and then for the contact scales of the same
         state; the last answer is kept so the boundary is evaluated once."""
@@ -472,21 +470,22 @@ class FemModel:
         i = int(np.argmin(dist))
         self.gf_v.vec.FV().NumPy()[:] = xs.v
         vel = self.gf_v(self._head_points)[i]
-        result = (p, dist, (float(nx[i]), float(ny[i])), float(nx[i] * vel[0] + ny[i] * vel[1]), i)
+        result = ClosestPoint(p, dist, i, (float(nx[i]), float(ny[i])), float(nx[i] * vel[0] + ny[i] * vel[1]))
         self._closest = (xs, result)
         return result
 
     def gap_and_rate(self, xs: FemState) -> tuple[float, float]:
-        _, dist, _, rate, i = self._closest_point(xs)
-        return float(dist[i]), rate
+        closest = self._closest_point(xs)
+        return closest.gap, closest.rate
 
     def contact_scales(self, xs: FemState) -> tuple[float, float]:
         """Contact duration and depth estimated from the rigid-body effective mass at the closest point."""
         if not self.contact_on and self._wall_contact is None:
             return math.inf, 0.0
-        p, dist, (nx, ny), rate, i = self._closest_point(xs)
-        m_eff = effective_mass(self.inertia0, p[i, 0] * ny - p[i, 1] * nx, self.scene.geometry.head_centre_depth)
-        return contact_time_scale(dist, self._head_weights, m_eff, rate, self.scene.contact.stiffness * self.scene.pendulum.thickness)
+        closest = self._closest_point(xs)
+        m_eff = effective_mass(self.inertia0, closest.arm, self.scene.geometry.head_centre_depth)
+        return contact_time_scale(closest.gaps, self._head_weights, m_eff, closest.rate,
+                                  self.scene.contact.stiffness * self.scene.pendulum.thickness)
 
     # ---------------------------------------------------------------- protocol
     def advance(self, t_end: float, torque: float) -> Outputs:
@@ -517,7 +516,8 @@ class FemModel:
 
     def get_state(self) -> ModelState:
         s = self._state
-        scalars = {"torque_work": s.torque_work, "substeps": float(self._outputs.substeps)}
+        scalars = {"torque_work": s.torque_work, "substeps": float(self._outputs.substeps),
+                   "last_min_gap": self.last_min_gap}
         arrays = {"u": s.u.copy(), "v": s.v.copy(), "lam": s.lam.copy()}
         if s.a is not None:
             arrays["a"] = s.a.copy()
@@ -543,6 +543,7 @@ class FemModel:
         self._jac_ready = False
         self.time = state.time
         self._outputs = self._compute_outputs(self._state, self.time, int(state.scalars.get("substeps", 0)))
+        self.last_min_gap = self._outputs.min_gap = restored_min_gap(state, self._outputs)
 
     # ----------------------------------------------------------------- outputs
     def _compute_outputs(self, s: FemState, t: float, substeps: int, light: bool = False) -> Outputs:

@@ -34,8 +34,8 @@ from .. import rigid_contact
 from ..modes import ModalBasis, modal_basis
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
-from ..protocol import ModelState, Outputs
-from ..contact_time import contact_time_scale, effective_mass
+from ..protocol import ModelState, Outputs, restored_min_gap
+from ..contact_time import ClosestPoint, contact_time_scale, effective_mass
 
 NEWTON_MAX_IT = 40
 TANGENT_AFTER = 4  # Newton iterations on the linear modal stiffness before the strain's tangent is assembled
@@ -352,8 +352,8 @@ class ReducedModel(SteppedModel):
         z, p, _ = x
         return np.linalg.solve(self.mass_matrix(z), p)
 
-    def _closest(self, x: tuple) -> tuple:
-        """(world points, signed distances, index of the closest, its normal rate)."""
+    def _closest(self, x: tuple) -> ClosestPoint:
+        """The head point closest to the wall and its rate."""
         if self._closest_memo is not None and self._closest_memo[0] is x:
             return self._closest_memo[1]
         from ..contact import box_signed_distance
@@ -366,7 +366,7 @@ class ReducedModel(SteppedModel):
         s, c = math.sin(z[0]), math.cos(z[0])
         elastic = self.basis.head_phi[i] @ v[1:]
         vel = v[0] * (_J @ world[i]) + np.array([c * elastic[0] - s * elastic[1], s * elastic[0] + c * elastic[1]])
-        result = (world, dist, i, float(nx[i] * vel[0] + ny[i] * vel[1]), (float(nx[i]), float(ny[i])))
+        result = ClosestPoint(world, dist, i, (float(nx[i]), float(ny[i])), float(nx[i] * vel[0] + ny[i] * vel[1]))
         self._closest_memo = (x, result)  # the stepper asks for the gap, then the scales, of one state
         return result
 
@@ -387,8 +387,8 @@ class ReducedModel(SteppedModel):
         circle_gap, circle_rate = self._circle_gap(x)
         if circle_gap > FAR_GAP:
             return circle_gap, circle_rate
-        _, dist, i, rate, _ = self._closest(x)
-        return float(dist[i]), rate
+        closest = self._closest(x)
+        return closest.gap, closest.rate
 
     def contact_scales(self, x: tuple) -> tuple[float, float]:
         """Contact duration and depth from the rigid-body effective mass at the closest point (as fem.py)."""
@@ -397,10 +397,11 @@ class ReducedModel(SteppedModel):
         circle_gap, circle_rate = self._circle_gap(x)
         if circle_gap > FAR_GAP and circle_gap + 2.0 * self.control.max_step * min(circle_rate, 0.0) > 0.0:
             return math.inf, 0.0  # no contact within the next two largest steps
-        world, dist, i, rate, (nx, ny) = self._closest(x)
-        m_eff = effective_mass(self.inertia0, world[i, 0] * ny - world[i, 1] * nx, self.scene.geometry.head_centre_depth)
-        near = dist < dist[i] + SCALE_BAND  # points further behind the closest one cannot take part
-        return contact_time_scale(dist[near], self.basis.head_weights[near], m_eff, rate, self._hk)
+        closest = self._closest(x)
+        m_eff = effective_mass(self.inertia0, closest.arm, self.scene.geometry.head_centre_depth)
+        dist = closest.gaps
+        near = dist < dist[closest.index] + SCALE_BAND  # points further behind the closest one cannot take part
+        return contact_time_scale(dist[near], self.basis.head_weights[near], m_eff, closest.rate, self._hk)
 
     # ---------------------------------------------------------------- protocol
     def get_state(self) -> ModelState:
@@ -421,8 +422,7 @@ class ReducedModel(SteppedModel):
         self._x = x
         self.time = float(state.time)
         self._outputs = self._compute_outputs(x, self.time, int(state.scalars.get("substeps", 0)))
-        self.last_min_gap = float(state.scalars.get("last_min_gap", self._outputs.gap))
-        self._outputs.min_gap = self.last_min_gap
+        self.last_min_gap = self._outputs.min_gap = restored_min_gap(state, self._outputs)
 
     # ----------------------------------------------------------------- outputs
     def _compute_outputs(self, x: tuple, t: float, substeps: int) -> Outputs:
@@ -433,8 +433,7 @@ class ReducedModel(SteppedModel):
         c_energy, _, _, force = self._contact(z)
         strain = self._strain.energy(z[1:])
         if self.contact_on:
-            _, dist, i, _, _ = self._closest(x)
-            gap = float(dist[i])
+            gap = self._closest(x).gap
         else:
             from ..contact import box_signed_distance
 

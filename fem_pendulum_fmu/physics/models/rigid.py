@@ -24,7 +24,7 @@ from ..contact_time import effective_mass
 from ..mass_properties import gravity_moment, mass_properties
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
-from ..protocol import ModelState, Outputs
+from ..protocol import ModelState, Outputs, restored_min_gap
 
 NEWTON_MAX_IT = 80
 ENERGY_ROUNDOFF = 1e-15  # relative energy imbalance per step accepted as converged
@@ -253,7 +253,7 @@ class RigidModel(SteppedModel):
         self._x = x
         self.time = float(state.time)
         self._outputs = self._compute_outputs(x, self.time, int(sc.get("substeps", 0)))
-        self.last_min_gap = float(sc.get("last_min_gap", self._outputs.gap))
+        self.last_min_gap = self._outputs.min_gap = restored_min_gap(state, self._outputs)
 
     # -------------------------------------------------------------- outputs
     def _compute_outputs(self, x: tuple, t: float, substeps: int) -> Outputs:
