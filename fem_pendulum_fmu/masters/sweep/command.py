@@ -41,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("out") / "sweep", help="output folder (resumed if it exists)")
     parser.add_argument("--csv", action="store_true", help="also write results.csv")
     parser.add_argument("--retry-failed", action="store_true", help="run again the samples that ended in error")
-    parser.add_argument("--plot", default="max_contact_force", metavar="FIGURE", help="figure of the summary plot")
+    parser.add_argument("--plot", default="largest_penetration", metavar="FIGURE", help="figure of the summary plot")
     parser.add_argument("--x", help="parameter on the plot's x axis (default: the first --param)")
     parser.add_argument("--y", help="a second parameter, shown as the y axis (figure as colour)")
     parser.add_argument("--no-progress", action="store_true")
@@ -53,15 +53,30 @@ def _need_extra() -> None:
         raise SystemExit(f"fem-pendulum sweep needs {', '.join(missing)}: pip install 'fem_pendulum_fmu[sweep]'")
 
 
+def _axes(items: list[str], option: str) -> list:
+    """NAME=V1,V2 items parsed; every unreadable one reported at once."""
+    from . import samples
+
+    axes, problems = [], []
+    for item in items:
+        try:
+            axes.append(samples.parse_param(item))
+        except ValueError as exc:
+            problems.append(f"{option} {item}: {exc}")
+    if problems:
+        raise SystemExit("\n".join(problems))
+    return axes
+
+
 def _samples(args: argparse.Namespace) -> list:
     from . import samples
 
-    fixed = dict(samples.parse_param(item) for item in args.set)
+    fixed = dict(_axes(args.set, "--set"))
     if any(len(values) != 1 for values in fixed.values()):
         raise SystemExit("--set takes one value: NAME=VALUE (a list is a grid axis: --param)")
     if args.table and args.param:
         raise SystemExit("give the samples as --param axes or as a --table, not both")
-    rows = samples.read_table(args.table) if args.table else samples.grid([samples.parse_param(p) for p in args.param])
+    rows = samples.read_table(args.table) if args.table else samples.grid(_axes(args.param, "--param"))
     rows = [{**row, **{name: values[0] for name, values in fixed.items()}} for row in rows]
     return samples.samples(rows, args.torque)
 
@@ -89,7 +104,10 @@ def command(args: argparse.Namespace) -> None:
         progress=not args.no_progress,
         retry_failed=args.retry_failed,
     )
-    table = run_sweep(chosen, settings)
+    try:
+        table = run_sweep(chosen, settings)
+    except ValueError as exc:  # a folder that holds a sweep with other settings
+        raise SystemExit(str(exc)) from None
     ok = int((table["status"] == "ok").sum())
     print(
         f"{len(table)} samples: {ok} ok, {len(table) - ok} error; wrote {args.out / 'results.parquet'} and "
@@ -100,5 +118,5 @@ def command(args: argparse.Namespace) -> None:
     if x is not None:
         y = args.y or (swept[1] if len(swept) > 1 and not args.x else None)
         print(summary_plot(table, args.plot, x, y, args.out / "summary.png"))
-    for row in table[table["status"] != "ok"].itertuples():
+    for row in table[table["status"] != "ok"].head(10).itertuples():
         print(f"  {row.sample_id}: {row.message}")

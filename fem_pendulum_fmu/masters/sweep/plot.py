@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -29,8 +30,7 @@ def _numeric(column: pd.Series) -> tuple[np.ndarray, list[str] | None]:
 def summary_plot(table: pd.DataFrame, figure: str, x: str, y: str | None, path: Path) -> Path:
     """`figure` against parameter `x` (a curve), or against `x` and `y` (colour); failed samples as red crosses.
 
-    A logarithmic axis is used for a parameter whose positive values span more than two decades (moduli,
-    stiffnesses)."""
+    A logarithmic axis is used for a parameter whose values span more than two decades (moduli, stiffnesses)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -49,9 +49,9 @@ def summary_plot(table: pd.DataFrame, figure: str, x: str, y: str | None, path: 
         dots = ax.scatter(xs[ok.to_numpy()], ys[ok.to_numpy()], c=table.loc[ok, figure].to_numpy(float), s=80)
         fig.colorbar(dots, ax=ax, label=figure)
         ax.plot(xs[~ok.to_numpy()], ys[~ok.to_numpy()], "rx", label="failed")
-        _axis(ax.set_yscale, ax.set_yticks, ys, ylabels)
+        _axis(ax.set_yscale, ax.set_yticks, ys[ok.to_numpy()], ylabels)
         ax.set_ylabel(y)
-    _axis(ax.set_xscale, ax.set_xticks, xs, xlabels)
+    _axis(ax.set_xscale, ax.set_xticks, xs[ok.to_numpy()], xlabels)
     ax.set_xlabel(x)
     ax.set_title(f"{figure}: {ok.sum()} ok, {(~ok).sum()} failed")
     if (~ok).any():
@@ -62,8 +62,12 @@ def summary_plot(table: pd.DataFrame, figure: str, x: str, y: str | None, path: 
     return path
 
 
-def _axis(set_scale: object, set_ticks: object, values: np.ndarray, labels: list[str] | None) -> None:
+def _axis(
+    set_scale: Callable[[str], object], set_ticks: Callable[..., object], values: np.ndarray, labels: list[str] | None
+) -> None:
+    """Names as ticks; a log scale when the successful samples' values are positive and span two decades
+    (failed samples at values <= 0, such as an invalid modulus, are then left off the plot, not off the title)."""
     if labels is not None:
-        set_ticks(range(len(labels)), labels)  # type: ignore[operator]
-    elif (values > 0).all() and values.max() > 100 * values.min():
-        set_scale("log")  # type: ignore[operator]
+        set_ticks(range(len(labels)), labels)
+    elif len(values) and (values > 0).all() and values.max() > 100 * values.min():
+        set_scale("log")
