@@ -171,3 +171,49 @@ def test_a_fresh_instance_started_from_a_saved_state_continues_bit_identically(f
     original, restored = (json.loads(run.stdout.strip().splitlines()[-1]) for run in runs)
     assert restored == original
     assert original[0] != original[-1]  # it moved
+
+
+MISUSE = """
+import ctypes, json, sys
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+fmu = sys.argv[1]
+md = read_model_description(fmu)
+folder = extract(fmu)
+s = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier="FemPendulum", instanceName="misuse")
+s.instantiate()
+s.setupExperiment(startTime=0.0)
+s.enterInitializationMode()
+s.setInteger([md.modelVariables[[v.name for v in md.modelVariables].index("model.fidelity")].valueReference], [2])
+s.exitInitializationMode()
+raw = ctypes.CDLL(f"{folder}/binaries/linux64/FemPendulum.so")  # fresh function objects: no argtypes
+c = ctypes.c_void_p(s.component)
+state = s.getFMUstate()
+codes = {
+    "set_bogus": raw.fmi2SetFMUstate(c, ctypes.c_void_p(0x1234)),
+    "free_state_itself": raw.fmi2FreeFMUstate(c, ctypes.c_void_p(state.value)),  # the address is due
+    "set_freed": raw.fmi2SetFMUstate(c, ctypes.c_void_p(state.value)),
+    "free_null": raw.fmi2FreeFMUstate(c, None),
+}
+kept = s.getFMUstate()
+left = s.getFMUstate()  # never freed: fmi2FreeInstance frees it
+s.doStep(0.0, 1e-3)
+s.setFMUstate(kept)
+codes["restore_kept"] = 0
+pointer = ctypes.c_void_p(kept.value)
+codes["free_kept"] = raw.fmi2FreeFMUstate(c, ctypes.byref(pointer))
+codes["freed_pointer_is_null"] = pointer.value is None
+s.terminate()
+s.freeInstance()
+print(json.dumps(codes))
+"""
+
+
+def test_fmu_states_a_host_gets_wrong_are_refused_not_dereferenced(fmus):
+    """fmi2OK 0, fmi2Error 3: a state the FMU never handed out is refused; the state passed where its
+    address is due (a host bug that crashed pythonfmu's binary) is freed; a freed pointer reads NULL."""
+    run = subprocess.run([sys.executable, "-c", MISUSE, str(fmus[0])], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-3000:]
+    codes = json.loads(run.stdout.strip().splitlines()[-1])
+    assert codes == {"set_bogus": 3, "free_state_itself": 0, "set_freed": 3, "free_null": 0,
+                     "restore_kept": 0, "free_kept": 0, "freed_pointer_is_null": True}

@@ -13,6 +13,11 @@
  *   the block the first one freed. An exit handler registered here after the
  *   core is loaded runs before both and releases the state through the core's
  *   own finalizePythonInterpreter; the two later releases then find it empty.
+ * - FMU states checked: pythonfmu dereferences whatever pointer a host passes as
+ *   a state (a host that passes the state where its address is due crashed in
+ *   fmi2FreeFMUstate). The front binary keeps the states it handed out, refuses
+ *   anything else with fmi2Error, sets a freed state to NULL and frees what a
+ *   host forgot at fmi2FreeInstance.
  * - fmi2Error: pythonfmu can only answer OK, Discard or Fatal. The slave reports
  *   refused input through fem_pendulum_report_error (ctypes) during the call;
  *   the call then answers fmi2Error and the message reaches the host's logger
@@ -31,6 +36,8 @@ typedef struct {
     fmi2Component core;
     fmi2CallbackFunctions callbacks;
     char *name;
+    fmi2FMUstate *states; /* the FMU states handed out and not yet freed */
+    size_t n_states, capacity;
 } Instance;
 
 static void *core = NULL;
@@ -143,11 +150,18 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     return inst;
 }
 
+static fmi2Status free_core_state(Instance *inst, fmi2FMUstate state) {
+    fmi2FreeFMUstateTYPE *f = (fmi2FreeFMUstateTYPE *)core_symbol("fmi2FreeFMUstate");
+    return f ? f(inst->core, &state) : fmi2Error;
+}
+
 void fmi2FreeInstance(fmi2Component c) {
     Instance *inst = (Instance *)c;
     if (inst == NULL) return;
+    for (size_t k = 0; k < inst->n_states; k++) free_core_state(inst, inst->states[k]);
     fmi2FreeInstanceTYPE *f = (fmi2FreeInstanceTYPE *)core_symbol("fmi2FreeInstance");
     if (f) f(inst->core);
+    free(inst->states);
     free(inst->name);
     free(inst);
 }
@@ -188,13 +202,6 @@ FORWARD(fmi2SetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t 
         (inst->core, vr, n, v))
 FORWARD(fmi2SetString, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]),
         (inst->core, vr, n, v))
-FORWARD(fmi2GetFMUstate, (fmi2Component c, fmi2FMUstate *s), (inst->core, s))
-FORWARD(fmi2SetFMUstate, (fmi2Component c, fmi2FMUstate s), (inst->core, s))
-FORWARD(fmi2FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (inst->core, s))
-FORWARD(fmi2SerializedFMUstateSize, (fmi2Component c, fmi2FMUstate s, size_t *size), (inst->core, s, size))
-FORWARD(fmi2SerializeFMUstate, (fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t size), (inst->core, s, b, size))
-FORWARD(fmi2DeSerializeFMUstate, (fmi2Component c, const fmi2Byte b[], size_t size, fmi2FMUstate *s),
-        (inst->core, b, size, s))
 FORWARD(fmi2GetDirectionalDerivative, (fmi2Component c, const fmi2ValueReference u[], size_t nu,
         const fmi2ValueReference z[], size_t nz, const fmi2Real dv[], fmi2Real dz[]),
         (inst->core, u, nu, z, nz, dv, dz))
@@ -209,3 +216,114 @@ FORWARD(fmi2GetRealStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Real *v
 FORWARD(fmi2GetIntegerStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Integer *value), (inst->core, s, value))
 FORWARD(fmi2GetBooleanStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value), (inst->core, s, value))
 FORWARD(fmi2GetStringStatus, (fmi2Component c, const fmi2StatusKind s, fmi2String *value), (inst->core, s, value))
+
+/* ----------------------------------------------------------------- FMU states */
+
+static int remember(Instance *inst, fmi2FMUstate state) {
+    if (inst->n_states == inst->capacity) {
+        size_t capacity = inst->capacity ? 2 * inst->capacity : 8;
+        fmi2FMUstate *grown = realloc(inst->states, capacity * sizeof *grown);
+        if (grown == NULL) return 0;
+        inst->states = grown;
+        inst->capacity = capacity;
+    }
+    inst->states[inst->n_states++] = state;
+    return 1;
+}
+
+static int known(const Instance *inst, fmi2FMUstate state) {
+    for (size_t k = 0; state != NULL && k < inst->n_states; k++)
+        if (inst->states[k] == state) return 1;
+    return 0;
+}
+
+static void forget(Instance *inst, fmi2FMUstate state) {
+    for (size_t k = 0; k < inst->n_states; k++)
+        if (inst->states[k] == state) {
+            inst->states[k] = inst->states[--inst->n_states];
+            return;
+        }
+}
+
+static fmi2Status refuse_state(Instance *inst, const char *call, const void *state) {
+    char message[256];
+    snprintf(message, sizeof message, "%s refused: %p is not an FMU state of this instance (taken with "
+             "fmi2GetFMUstate or fmi2DeSerializeFMUstate and not yet freed); nothing was changed", call, state);
+    log_error(&inst->callbacks, inst->name, message);
+    return fmi2Error;
+}
+
+/* Stores a state the core made in *s, remembered; a known state already in *s is replaced (FMI 2.0). */
+static fmi2Status keep_state(Instance *inst, fmi2FMUstate *s, fmi2FMUstate made, fmi2Status status) {
+    if (status > fmi2Warning || made == NULL) return status;
+    if (known(inst, *s)) {
+        forget(inst, *s);
+        free_core_state(inst, *s);
+    }
+    if (!remember(inst, made)) {
+        free_core_state(inst, made);
+        return fmi2Error;
+    }
+    *s = made;
+    return status;
+}
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) {
+    Instance *inst = (Instance *)c;
+    fmi2GetFMUstateTYPE *f = (fmi2GetFMUstateTYPE *)core_symbol("fmi2GetFMUstate");
+    if (inst == NULL || f == NULL || s == NULL) return fmi2Error;
+    fmi2FMUstate made = NULL;
+    error_reported = 0;
+    return keep_state(inst, s, made, settle(inst, f(inst->core, &made)));
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size, fmi2FMUstate *s) {
+    Instance *inst = (Instance *)c;
+    fmi2DeSerializeFMUstateTYPE *f = (fmi2DeSerializeFMUstateTYPE *)core_symbol("fmi2DeSerializeFMUstate");
+    if (inst == NULL || f == NULL || s == NULL || (bytes == NULL && size > 0)) return fmi2Error;
+    fmi2FMUstate made = NULL;
+    error_reported = 0;
+    return keep_state(inst, s, made, settle(inst, f(inst->core, bytes, size, &made)));
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s) {
+    Instance *inst = (Instance *)c;
+    if (inst == NULL) return fmi2Error;
+    if (s == NULL) return fmi2OK; /* nothing to free (FMI 2.0) */
+    fmi2FMUstate state = (fmi2FMUstate)s;
+    if (!known(inst, state)) {
+        state = *s;
+        if (state == NULL) return fmi2OK;
+        if (!known(inst, state)) return refuse_state(inst, "fmi2FreeFMUstate", state);
+        *s = NULL;
+    } /* else the host passed the state itself where its address is due: free it all the same */
+    forget(inst, state);
+    return free_core_state(inst, state);
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) {
+    Instance *inst = (Instance *)c;
+    fmi2SetFMUstateTYPE *f = (fmi2SetFMUstateTYPE *)core_symbol("fmi2SetFMUstate");
+    if (inst == NULL || f == NULL) return fmi2Error;
+    if (!known(inst, s)) return refuse_state(inst, "fmi2SetFMUstate", s);
+    error_reported = 0;
+    return settle(inst, f(inst->core, s));
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *size) {
+    Instance *inst = (Instance *)c;
+    fmi2SerializedFMUstateSizeTYPE *f = (fmi2SerializedFMUstateSizeTYPE *)core_symbol("fmi2SerializedFMUstateSize");
+    if (inst == NULL || f == NULL || size == NULL) return fmi2Error;
+    if (!known(inst, s)) return refuse_state(inst, "fmi2SerializedFMUstateSize", s);
+    error_reported = 0;
+    return settle(inst, f(inst->core, s, size));
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte bytes[], size_t size) {
+    Instance *inst = (Instance *)c;
+    fmi2SerializeFMUstateTYPE *f = (fmi2SerializeFMUstateTYPE *)core_symbol("fmi2SerializeFMUstate");
+    if (inst == NULL || f == NULL || bytes == NULL) return fmi2Error;
+    if (!known(inst, s)) return refuse_state(inst, "fmi2SerializeFMUstate", s);
+    error_reported = 0;
+    return settle(inst, f(inst->core, s, bytes, size));
+}
