@@ -21,8 +21,8 @@ class Progress:
     def remaining(self) -> int:
         return self.total - self.done - self.failed
 
-    def _show(self) -> None:
-        self._bar.set_postfix_str(f"done {self.done}, failed {self.failed}, remaining {self.remaining}")
+    def _show(self, refresh: bool = True) -> None:
+        self._bar.set_postfix_str(f"done {self.done}, failed {self.failed}, remaining {self.remaining}", refresh)
 
     def finished(self, ok: bool) -> None:
         """One sample finished, with status ok or not."""
@@ -31,8 +31,8 @@ class Progress:
         else:
             self.failed += 1
         if self._bar is not None:
+            self._show(refresh=False)  # drawn once, by update, with the new counts
             self._bar.update(1)
-            self._show()
 
     def close(self) -> None:
         if self._bar is not None:
