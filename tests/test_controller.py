@@ -52,6 +52,7 @@ def linear_tracking_rms() -> float:
     return abs(1 - ratio) * s.amplitude / math.sqrt(2)
 
 
+@pytest.mark.slow
 def test_tracking_error_away_from_the_wall(fem_loop, rigid_loop):
     # Measured (fem-pendulum-control): 3.8 deg RMS with the FE model, 3.7 deg with the rigid one,
     # over the half-periods with a positive set-point (the wall blocks the others). The linear loop
@@ -67,6 +68,7 @@ def test_tracking_error_away_from_the_wall(fem_loop, rigid_loop):
     assert abs(fem_loop["rms_away"] - rigid_loop["rms_away"]) < math.radians(0.5)
 
 
+@pytest.mark.slow
 def test_every_swing_to_negative_angles_ends_on_the_wall(fem_loop, rigid_loop):
     for loop in (fem_loop, rigid_loop):
         impacts = loop["impacts"]
@@ -81,6 +83,7 @@ def test_every_swing_to_negative_angles_ends_on_the_wall(fem_loop, rigid_loop):
         assert np.max(np.abs(loop["torque"])) <= 15.0
 
 
+@pytest.mark.slow
 def test_energy_balance_holds_in_the_loop(fem_loop):
     swing = 1.091 * 9.81 * 0.1817 * (1 - math.cos(math.radians(20)))
     assert np.max(np.abs(fem_loop["balance"])) < 1e-3 * swing

@@ -56,6 +56,7 @@ def stiff_run():
     return model, e0, np.array(rows), states
 
 
+@pytest.mark.slow
 def test_stiff_first_contact_time(stiff_run):
     model, _, out, states = stiff_run
     k = int(np.argmax(out[:, 4] < 0))  # first communication interval with contact
@@ -73,6 +74,7 @@ def test_stiff_first_contact_time(stiff_run):
     assert abs(t_contact - 0.2394) <= 1e-3, t_contact
 
 
+@pytest.mark.slow
 def test_stiff_penetration_and_energy(stiff_run):
     model, e0, out, _ = stiff_run
     penetration = -out[:, 4].min()
@@ -82,6 +84,7 @@ def test_stiff_penetration_and_energy(stiff_run):
     assert np.all(out[:, 6] >= 0)
 
 
+@pytest.mark.slow
 def test_stiff_rebounds_lose_energy_to_vibration_only(stiff_run):
     model, _, out, _ = stiff_run
     peaks = rebound_peaks(out)
@@ -94,6 +97,7 @@ def test_stiff_rebounds_lose_energy_to_vibration_only(stiff_run):
     assert out[-1, 7] > 1e-3 * swing_energy(model.scene)  # the vibration is there, in strain and kinetic energy
 
 
+@pytest.mark.slow
 def test_seed_equivalent_stiffness_rebounds_to_20_degrees():
     model = create(stiff(**{"pendulum.E": 2.1e11 / 0.01}))
     out = run(model, 1.0)
@@ -102,6 +106,7 @@ def test_seed_equivalent_stiffness_rebounds_to_20_degrees():
     assert np.all(np.abs(peaks[:2] - 20.0) <= 0.1), peaks
 
 
+@pytest.mark.slow
 def test_free_swing_energy_and_small_amplitude_period():
     theta0 = math.radians(2.0)
     model = create(stiff(theta0=theta0, **{"wall.kind": "none"}))
@@ -127,6 +132,7 @@ def test_constant_torque_holds_the_pendulum_where_gravity_balances_it():
     assert np.max(np.abs(out[:, 1] - theta_eq)) <= 1e-3 * theta_eq
 
 
+@pytest.mark.slow
 def test_compliant_impact_feeds_vibration_and_keeps_energy():
     model = create(compliant())
     e0 = model.outputs().total
@@ -138,6 +144,7 @@ def test_compliant_impact_feeds_vibration_and_keeps_energy():
     assert peak < 19.0, peak  # the rigid-body proxy loses energy into elastic vibration
 
 
+@pytest.mark.slow
 def test_compliant_angle_and_gap_converge_under_mesh_refinement():
     results = {}
     for size in (0.06, 0.03, 0.015):
@@ -191,6 +198,7 @@ def test_bad_parameters_are_named_with_value_and_range(name, value, allowed):
     assert name in str(info.value) and repr(value) in str(info.value)
 
 
+@pytest.mark.slow
 def test_deformable_wall_impact_is_finite_and_keeps_energy():
     """The seed's set-up: the meshed steel block, through ContactBoundary."""
     model = create(stiff(**{"wall.kind": "deformable"}))

@@ -110,6 +110,7 @@ def test_built_fmu_passes_fmpy_validation_and_carries_the_template(fmus):
     assert float(md.defaultExperiment.stopTime) == 2.0
 
 
+@pytest.mark.slow
 def test_fmpy_command_line_with_input_file_and_start_values(fmus, tmp_path):
     fmu, _ = fmus
     out = tmp_path / "out.csv"
@@ -179,6 +180,7 @@ def test_parameter_after_initialisation_is_refused(fmus, tmp_path):
     inst.close()
 
 
+@pytest.mark.slow
 @isolated
 def test_rollback_replays_bit_identically(fmus, tmp_path):
     fmu, _ = fmus
@@ -208,6 +210,7 @@ print(json.dumps([inst.step(1e-3, -0.3) for _ in range(10)]))
 """
 
 
+@pytest.mark.slow
 @isolated
 def test_serialised_state_restores_in_another_process(fmus, tmp_path):
     fmu, _ = fmus
@@ -241,6 +244,7 @@ def test_corrupt_state_bytes_are_refused_without_a_crash(fmus, tmp_path):
     inst.close()
 
 
+@pytest.mark.slow
 @isolated
 def test_two_instances_with_different_parameters_do_not_disturb_each_other(fmus, tmp_path):
     fmu, _ = fmus
@@ -263,6 +267,7 @@ def test_two_instances_with_different_parameters_do_not_disturb_each_other(fmus,
         inst.close()
 
 
+@pytest.mark.slow
 @isolated
 def test_variable_communication_steps_reach_the_same_state(fmus, tmp_path):
     fmu, _ = fmus
@@ -307,6 +312,7 @@ open(sys.argv[2], "w").write(json.dumps(rows))
 """
 
 
+@pytest.mark.slow
 def test_libcosim_master_matches_fmpy(fmus, tmp_path):
     """The Open Simulation Platform's libcosim (through libcosimpy) steps the FMU like fmpy does."""
     fmu, _ = fmus
@@ -353,6 +359,7 @@ def test_a_state_of_other_parameters_is_refused(fmus, tmp_path):
     inst.close()
 
 
+@pytest.mark.slow
 def test_open_loop_master_writes_results_and_plot(fmus, tmp_path):
     fmu, _ = fmus
     out = tmp_path / "run"
@@ -383,6 +390,7 @@ def test_example_torque_profiles_step_with_two_rows():
     assert len(steps) == 2 and all(pulse["torque"][i] != pulse["torque"][i + 1] for i in steps)
 
 
+@pytest.mark.slow
 @isolated
 def test_auto_fidelity_is_logged_and_runs_the_model_it_names(fmus, tmp_path):
     """model.fidelity = auto (1) on the steel scene runs the reduced model, says so in the FMI

@@ -237,6 +237,7 @@ def test_at_rest_touching_the_wall_stays_at_rest(fmus, fidelity, name):
 
 
 # ----------------------------------------------------------------------- 6. compliant large deformation
+@pytest.mark.slow
 def test_rubber_torque_pulse_discards_cleanly_when_the_hinge_collapses(fmus):
     """2 N.m held on the rubber pendulum crushes the hinge edge (the torque is a traction there,
     1.3 E at its corners): an element would invert at t = 2.3 ms, no step down to 1e-9 s avoids it,
@@ -250,6 +251,7 @@ def test_rubber_torque_pulse_discards_cleanly_when_the_hinge_collapses(fmus):
     assert np.array_equal(run[-1][1:-2], run[-2][1:-2])  # outputs as before the step
 
 
+@pytest.mark.slow
 def test_rubber_short_pulse_keeps_every_element_upright():
     """A 1 ms pulse of 2 N.m (4.2 J into the 0.14 kg rubber pendulum): det F > 0 at every
     integration point after every step, outputs finite, energy within the rubber bound."""
@@ -269,6 +271,7 @@ def test_rubber_short_pulse_keeps_every_element_upright():
 
 
 # ------------------------------------------------------------------- 7. deformable wall, compliant
+@pytest.mark.slow
 def test_deformable_wall_with_the_compliant_pendulum(fmus):
     """The meshed steel block and the rubber pendulum (order 2 for speed): 0.24 m/s at the head
     (omega0 = -1 rad/s) from 1.2 mm before the wall, through the first 7 ms of a long, soft contact."""

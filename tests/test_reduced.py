@@ -62,6 +62,7 @@ def steel():
     return {f: trace(create(stiff(model__fidelity=f)), 0.45) for f in ("reduced", "rigid", "fem")}
 
 
+@pytest.mark.slow
 def test_steel_reduced_follows_fem_through_impact_and_rebound(steel):
     red, fem, rigid = steel["reduced"], steel["fem"], steel["rigid"]
     assert np.min(fem[:, 4]) < 0.0 and np.min(red[:, 4]) < 0.0  # both hit the wall
@@ -73,6 +74,7 @@ def test_steel_reduced_follows_fem_through_impact_and_rebound(steel):
     assert np.max(np.abs(red[:, 3])) < ENERGY_BOUND
 
 
+@pytest.mark.slow
 def test_rubber_reduced_tracks_fem_through_the_first_impact_far_better_than_rigid():
     """Rubber is outside the reduced model's accurate range (auto picks fem): the impact excites
     modes up to ~1 kHz. It still carries the vibration the rigid model misses."""
@@ -87,6 +89,7 @@ def test_rubber_reduced_tracks_fem_through_the_first_impact_far_better_than_rigi
     assert np.max(np.abs(red[:, 3])) < ENERGY_BOUND
 
 
+@pytest.mark.slow
 def test_rubber_torque_pulse_keeps_the_energy_balance():
     pulse = lambda t: 2.0 if t < 0.05 else 0.0
     out = trace(create(compliant(model__fidelity="reduced")), 0.3, pulse)
@@ -112,6 +115,7 @@ def test_auto_picks_the_cheapest_adequate_model_and_says_why(scene, picked, capl
     assert f"auto picked {picked}" in caplog.text
 
 
+@pytest.mark.slow
 def test_von_mises_of_the_modal_field_only_when_asked_and_as_fem_reports_it():
     """The modal displacement is a field on the FE mesh, so the reduced model reports the same
     stress measure as fem (plane-stress von Mises of the Neo-Hookean Cauchy stress). Measured:

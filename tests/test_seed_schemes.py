@@ -51,6 +51,7 @@ def test_newmark_starts_from_the_consistent_acceleration():
     assert alpha == pytest.approx(expected, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_newmark_agrees_with_our_scheme_in_free_flight_at_small_steps():
     ours = create(stiff(**COARSE))
     seed = newmark(dt=1e-4)
@@ -71,6 +72,7 @@ def test_the_gap_rule_steps():
     assert any(n == 10 for n, g in counts if g < 1e-3)  # under 1 mm: steps of 1e-4 s
 
 
+@pytest.mark.slow
 def test_newmark_at_the_seeds_step_misses_the_energy_balance_ours_keeps():
     """At dt = 1 ms the whole 0.34 ms impact falls inside one trapezoidal step (DESIGN.md section 3)."""
     errors = {}

@@ -40,6 +40,7 @@ def test_stored_references_are_small_and_converged():
     assert total < 1_000_000
 
 
+@pytest.mark.slow
 def test_quick_mode_defaults_are_within_their_bounds(fmus, tmp_path, monkeypatch):
     monkeypatch.setattr(bench, "RUNS", tmp_path)  # the runs' samples: not into the benchmark's folder
     rows = bench.quick_rows(fmus)

@@ -131,6 +131,7 @@ def _dask(*args: str, log: Path) -> subprocess.Popen:
         return subprocess.Popen([str(Path(sys.executable).parent / "dask"), *args], stdout=handle, stderr=handle)
 
 
+@pytest.mark.slow
 def test_same_table_through_a_scheduler_and_two_workers(swept, tmp_path):
     fmu, chosen, _, table, _ = swept
     file = tmp_path / "scheduler.json"
