@@ -117,6 +117,9 @@ def command(args: argparse.Namespace) -> None:
     x = args.x or (swept[0] if swept else None)
     if x is not None:
         y = args.y or (swept[1] if len(swept) > 1 and not args.x else None)
+        absent = [name for name in (x, y) if name is not None and name not in table.columns]
+        if absent:
+            raise SystemExit(f"--x/--y {', '.join(absent)}: not a parameter of this sweep (the table is written)")
         print(summary_plot(table, args.plot, x, y, args.out / "summary.png"))
     for row in table[table["status"] != "ok"].head(10).itertuples():
         print(f"  {row.sample_id}: {row.message}")

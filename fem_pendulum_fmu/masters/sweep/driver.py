@@ -158,7 +158,11 @@ def run_sweep(samples: list[Sample], settings: SweepSettings) -> pd.DataFrame:
     the run on its worker) and the summary figures (figures.Figures). The files in settings.out hold the same
     rows and, in series.parquet, each sample's time series (store.read_series).
     """
-    outputs = settings.outputs or _all_outputs(settings.fmu)
+    available = _all_outputs(settings.fmu)
+    unknown = [name for name in settings.outputs if name not in available]
+    if unknown:
+        raise ValueError(f"outputs {', '.join(unknown)} are not outputs of the FMU: choose from {', '.join(available)}")
+    outputs = settings.outputs or available
     digest = hashlib.sha256(settings.fmu.read_bytes()).hexdigest()
     store.check_settings(
         settings.out,

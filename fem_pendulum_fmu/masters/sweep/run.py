@@ -23,7 +23,7 @@ import time
 from ctypes import byref
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -32,7 +32,9 @@ from ...physics.scene import Scene
 from .figures import NEEDED, Figures, summarise
 from .samples import Value, start_values
 
-OK, ERROR = "ok", "error"
+Status = Literal["ok", "error"]
+OK: Status = "ok"
+ERROR: Status = "error"
 _WARNING = 1  # fmi2Warning: log messages at this status or worse go into an error row's message
 
 
@@ -54,7 +56,7 @@ class SampleResult:
     and its time series (time and the requested outputs; None when the run produced none)."""
 
     sample_id: str
-    status: str
+    status: Status
     message: str = ""
     wall_time: float = math.nan
     figures: Figures = field(default_factory=Figures)
