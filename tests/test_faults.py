@@ -98,6 +98,7 @@ def _retrying_master(inst, t_end, h0, torque):
     return done, discards
 
 
+@pytest.mark.slow
 @isolated
 def test_a_master_restores_and_retries_with_smaller_steps(fmus, tmp_path):
     fmu, _ = fmus
@@ -184,6 +185,7 @@ def _energy_check(model, schedule, rel_bound, floor):
     assert worst <= rel_bound * moved + floor * abs(e0), (worst, moved, e0)
 
 
+@pytest.mark.slow  # hypothesis draws long schedules: 2 to 27 s in four runs
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(schedule=st.lists(st.tuples(STEP, TORQUE), min_size=1, max_size=40),
        theta0=st.floats(min_value=-0.6, max_value=0.6), omega0=st.floats(min_value=-15.0, max_value=15.0))

@@ -62,6 +62,7 @@ def swept(fmus, tmp_path_factory):
     return fmu, chosen, out, table, ran
 
 
+@pytest.mark.slow
 def test_invalid_value_gives_error_rows_naming_it_and_the_rest_run(swept):
     _, chosen, _, table, ran = swept
     assert list(table["sample_id"]) == [s.sample_id for s in chosen]
@@ -80,6 +81,7 @@ def test_invalid_value_gives_error_rows_naming_it_and_the_rest_run(swept):
     assert ran == [[s.sample_id for s in chosen[:3]], [s.sample_id for s in chosen[3:]]]
 
 
+@pytest.mark.slow
 def test_resumed_sweep_runs_nothing_new(swept, monkeypatch):
     fmu, chosen, out, table, _ = swept
 
@@ -105,6 +107,7 @@ def assert_same_series(frame: pd.DataFrame, reference: np.ndarray) -> None:
         assert np.array_equal(frame[name].to_numpy(), reference[name]), name
 
 
+@pytest.mark.slow
 def test_series_equals_a_direct_fmpy_run_bit_for_bit(swept):
     fmu, chosen, out, table, _ = swept
     ok = [s for s in chosen if table.set_index("sample_id").loc[s.sample_id, "status"] == "ok"]
