@@ -12,6 +12,7 @@ check itself (femp_preflight.py). Every FMU must pass fmpy's validation.
 from __future__ import annotations
 
 import datetime
+import re
 import shutil
 import subprocess
 import sys
@@ -41,10 +42,9 @@ def requirements_txt(names: tuple[str, ...]) -> str:
     """The named dependencies as this package declares them (minimum versions, no pins), one a line."""
     declared = {}
     for spec in metadata.requires("fem_pendulum_fmu") or []:
-        if ";" in spec:  # an extra's requirement
-            continue
-        name = spec.split(">")[0].split("=")[0].split("<")[0].split("[")[0].strip()
-        declared[name.lower()] = spec.replace(" ", "")
+        name = re.match(r"[A-Za-z0-9_.\-]+", spec)
+        if name and ";" not in spec:  # with a marker: an extra's requirement
+            declared[name.group(0).lower()] = spec.replace(" ", "")
     return "".join(f"{declared.get(name, name)}\n" for name in names)
 
 
