@@ -1,11 +1,11 @@
 """Controller in the loop: PID FMU + torque-limited drive + pendulum FMU (fixed-step fmpy master)."""
+
 from __future__ import annotations
 
 import json
 import math
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,10 +24,15 @@ print(json.dumps({"rms_away": tracking_error(r), "impacts": wall_impacts(r).toli
 
 
 def run_loop(fmus, start_values: dict) -> dict:
-    run = subprocess.run([sys.executable, "-c", LOOP, str(fmus[0]), str(fmus[1]), json.dumps(start_values)],
-                         capture_output=True, text=True)
+    run = subprocess.run(
+        [sys.executable, "-c", LOOP, str(fmus[0]), str(fmus[1]), json.dumps(start_values)],
+        capture_output=True,
+        text=True,
+    )
     assert run.returncode == 0, run.stderr[-3000:]
-    return {k: np.array(v) if isinstance(v, list) else v for k, v in json.loads(run.stdout.strip().splitlines()[-1]).items()}
+    return {
+        k: np.array(v) if isinstance(v, list) else v for k, v in json.loads(run.stdout.strip().splitlines()[-1]).items()
+    }
 
 
 @pytest.fixture(scope="module")
@@ -101,5 +106,3 @@ def test_pid_saturates_and_stops_integrating():
     assert pid.update(1.0, 0.0, 1e-3) == pytest.approx(10.004)
     assert pid.update(10.0, 0.0, 1e-3) == 15.0  # saturated
     assert pid.integral == pytest.approx(1e-3)  # the saturated step did not wind up the integral
-
-

@@ -4,6 +4,7 @@ Every test that instantiates the FMU runs in a fresh interpreter (@isolated), so
 that what one test loads cannot help or hurt the next; the test with two
 instances in one process checks that they coexist.
 """
+
 from __future__ import annotations
 
 import json
@@ -12,18 +13,16 @@ import shutil
 import subprocess
 import sys
 import zipfile
+from ctypes import byref
 from pathlib import Path
 
 import numpy as np
 import pytest
-from ctypes import byref
-
 from fmpy import extract, fmi2, read_model_description, simulate_fmu
-from fmpy.logging import addLoggerProxy
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
+from fmpy.logging import addLoggerProxy
 from fmpy.validation import validate_fmu
-
 
 ROOT = Path(__file__).resolve().parents[1]
 COARSE = {"model.mesh_size": 0.06}  # FMI behaviour, not physics: the coarsest mesh keeps tests fast
@@ -34,8 +33,11 @@ def isolated(body):
     """Run the test body in a new Python process (one FMU instance per process)."""
 
     def test(fmus, tmp_path):
-        script = (f"import sys; from pathlib import Path; sys.path.insert(0, {TESTS!r}); import test_fmu; "
-                  f"test_fmu.{body.__name__}.body((Path({str(fmus[0])!r}), Path({str(fmus[1])!r})), Path({str(tmp_path)!r})); ")
+        script = (
+            f"import sys; from pathlib import Path; sys.path.insert(0, {TESTS!r}); import test_fmu; "
+            f"test_fmu.{body.__name__}.body((Path({str(fmus[0])!r}), Path({str(fmus[1])!r})), "
+            f"Path({str(tmp_path)!r})); "
+        )
         run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
         assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
 
@@ -62,8 +64,12 @@ class Instance:
         callbacks.allocateMemory = fmi2.defaultCallbacks.allocateMemory
         callbacks.freeMemory = fmi2.defaultCallbacks.freeMemory
         addLoggerProxy(byref(callbacks))
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir, instanceName=name,
-                             modelIdentifier=self.md.coSimulation.modelIdentifier)
+        self.fmu = FMU2Slave(
+            guid=self.md.guid,
+            unzipDirectory=self.dir,
+            instanceName=name,
+            modelIdentifier=self.md.coSimulation.modelIdentifier,
+        )
         self.fmu.instantiate(loggingOn=True, callbacks=callbacks)
         self.fmu.setupExperiment(startTime=0.0)
         self.fmu.enterInitializationMode()
@@ -114,10 +120,27 @@ def test_built_fmu_passes_fmpy_validation_and_carries_the_template(fmus):
 def test_fmpy_command_line_with_input_file_and_start_values(fmus, tmp_path):
     fmu, _ = fmus
     out = tmp_path / "out.csv"
-    subprocess.run([str(Path(sys.executable).parent / "fmpy"), "simulate", str(fmu),
-                    "--input-file", str(ROOT / "examples" / "torque_pulse.csv"), "--stop-time", "0.35",
-                    "--output-file", str(out), "--start-values", "theta0", "0.1", "model.mesh_size", "0.06"],
-                   check=True, capture_output=True, text=True)
+    subprocess.run(
+        [
+            str(Path(sys.executable).parent / "fmpy"),
+            "simulate",
+            str(fmu),
+            "--input-file",
+            str(ROOT / "examples" / "torque_pulse.csv"),
+            "--stop-time",
+            "0.35",
+            "--output-file",
+            str(out),
+            "--start-values",
+            "theta0",
+            "0.1",
+            "model.mesh_size",
+            "0.06",
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     data = np.genfromtxt(out, delimiter=",", names=True)
     assert abs(data["theta"][0] - 0.1) < 1e-6
     # -1 N.m from 0.1 s to 0.3 s does the work -1 N.m x (theta(0.3) - theta(0.1)): positive here, the pendulum
@@ -131,8 +154,9 @@ def test_fmpy_command_line_with_input_file_and_start_values(fmus, tmp_path):
 @isolated
 def test_theta0_in_degrees_through_the_display_unit(fmus, tmp_path):
     fmu, _ = fmus
-    result = simulate_fmu(str(fmu), stop_time=0.002, step_size=1e-3,
-                          start_values={"theta0": (10.0, "deg"), "model.mesh_size": 0.06})
+    result = simulate_fmu(
+        str(fmu), stop_time=0.002, step_size=1e-3, start_values={"theta0": (10.0, "deg"), "model.mesh_size": 0.06}
+    )
     assert abs(result["theta"][0] - math.radians(10.0)) < 1e-6
 
 
@@ -142,8 +166,13 @@ def test_bad_input_is_refused_with_a_message_and_the_state_kept(fmus, tmp_path):
     inst = Instance(fmu, **COARSE)
     inst.step(1e-3)
     before = inst.get("theta", "omega", "energy.total")
-    for torque, h, t in ((float("nan"), 1e-3, inst.t), (float("inf"), 1e-3, inst.t), (0.0, -1e-3, inst.t),
-                         (0.0, 0.0, inst.t), (0.0, 1e-3, inst.t + 0.5)):
+    for torque, h, t in (
+        (float("nan"), 1e-3, inst.t),
+        (float("inf"), 1e-3, inst.t),
+        (0.0, -1e-3, inst.t),
+        (0.0, 0.0, inst.t),
+        (0.0, 1e-3, inst.t + 0.5),
+    ):
         inst.set("torque", torque)
         with pytest.raises(FMICallException, match=r"status 3 \(error\)"):
             inst.fmu.doStep(t, h)
@@ -221,7 +250,9 @@ def test_serialised_state_restores_in_another_process(fmus, tmp_path):
     blob.write_bytes(bytes(inst.fmu.serializeFMUstate(inst.fmu.getFMUstate())))
     here = [inst.step(1e-3, -0.3) for _ in range(10)]
     inst.close()
-    script = RESTORE_SCRIPT.format(tests=str(Path(__file__).parent), fmu=str(fmu), start=COARSE, blob=str(blob), t=0.005)
+    script = RESTORE_SCRIPT.format(
+        tests=str(Path(__file__).parent), fmu=str(fmu), start=COARSE, blob=str(blob), t=0.005
+    )
     out = subprocess.run([sys.executable, "-c", script], check=True, capture_output=True, text=True).stdout
     import json
 
@@ -320,12 +351,14 @@ def test_libcosim_master_matches_fmpy(fmus, tmp_path):
     run = subprocess.run([sys.executable, "-c", LIBCOSIM_RUN, str(fmu), str(out)], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr[-3000:]
     cosim = np.array(json.loads(out.read_text()))
-    script = (f"import sys, json, math; sys.path.insert(0, {TESTS!r}); from test_fmu import Instance; "
-              f"i = Instance({str(fmu)!r}, **{{'model.mesh_size': 0.06, 'wall.kind': 1}}); names = "
-              "('theta', 'omega', 'gap', 'contact_force', 'energy.total', 'energy.torque_work'); rows = []\n"
-              "for k in range(300):\n"
-              "    i.step(1e-3, -2.0 * math.sin(10.0 * k * 1e-3)); rows.append(i.get(*names))\n"
-              "print(json.dumps(rows))")
+    script = (
+        f"import sys, json, math; sys.path.insert(0, {TESTS!r}); from test_fmu import Instance; "
+        f"i = Instance({str(fmu)!r}, **{{'model.mesh_size': 0.06, 'wall.kind': 1}}); names = "
+        "('theta', 'omega', 'gap', 'contact_force', 'energy.total', 'energy.torque_work'); rows = []\n"
+        "for k in range(300):\n"
+        "    i.step(1e-3, -2.0 * math.sin(10.0 * k * 1e-3)); rows.append(i.get(*names))\n"
+        "print(json.dumps(rows))"
+    )
     ref = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
     fmpy_rows = np.array(json.loads(ref.stdout.strip().splitlines()[-1]))
     assert fmpy_rows[:, 3].max() > 0 or fmpy_rows[:, 2].min() < 0.01  # driven towards the wall
@@ -363,9 +396,24 @@ def test_a_state_of_other_parameters_is_refused(fmus, tmp_path):
 def test_open_loop_master_writes_results_and_plot(fmus, tmp_path):
     fmu, _ = fmus
     out = tmp_path / "run"
-    run = subprocess.run([str(Path(sys.executable).parent / "fem-pendulum"), "run", "--fmu", str(fmu),
-                          "--torque", str(ROOT / "examples" / "torque_pulse.csv"), "--stop-time", "1.0",
-                          "--set", "model.fidelity=2", "--out", str(out)], capture_output=True, text=True)
+    run = subprocess.run(
+        [
+            str(Path(sys.executable).parent / "fem-pendulum"),
+            "run",
+            "--fmu",
+            str(fmu),
+            "--torque",
+            str(ROOT / "examples" / "torque_pulse.csv"),
+            "--stop-time",
+            "1.0",
+            "--set",
+            "model.fidelity=2",
+            "--out",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert run.returncode == 0, run.stderr[-3000:]
     data = np.genfromtxt(out.with_suffix(".csv"), delimiter=",", names=True)
     assert len(data) == 1001 and data["time"][-1] == pytest.approx(1.0)

@@ -1,4 +1,5 @@
 """The one declaration of the interface (modelDescription.template.xml) against everything derived from it."""
+
 from __future__ import annotations
 
 import subprocess
@@ -9,29 +10,44 @@ from pathlib import Path
 import pytest
 
 from fem_pendulum_fmu.fmi import interface
+from fem_pendulum_fmu.fmi.slave import ENUM_ALIASES, OUTPUT_FIELDS, PendulumSlave
 from fem_pendulum_fmu.physics.protocol import Outputs
 from fem_pendulum_fmu.physics.scene import FIDELITIES, WALL_KINDS, Scene, get_path
-from fem_pendulum_fmu.fmi.slave import ENUM_ALIASES, OUTPUT_FIELDS, PendulumSlave
 
 ROOT = Path(__file__).resolve().parents[1]
 TEMPLATE = ROOT / interface.TEMPLATE_NAME
 
 # DESIGN.md section 7: names, causalities and types are a contract with masters and scripts
 CONTRACT = {
-    "torque": ("input", "Real", "N.m"), "theta": ("output", "Real", "rad"), "omega": ("output", "Real", "rad/s"),
-    "gap": ("output", "Real", "m"), "contact_force": ("output", "Real", "N"),
-    **{f"energy.{e}": ("output", "Real", "J") for e in ("kinetic", "potential", "strain", "contact", "total",
-                                                        "torque_work")},
-    "stress.von_mises_max": ("output", "Real", "Pa"), "solver.substeps": ("output", "Integer", None),
-    "theta0": ("parameter", "Real", "rad"), "omega0": ("parameter", "Real", "rad/s"),
-    "pendulum.E": ("parameter", "Real", "Pa"), "pendulum.nu": ("parameter", "Real", None),
-    "pendulum.rho": ("parameter", "Real", "kg/m3"), "pendulum.thickness": ("parameter", "Real", "m"),
-    "wall.kind": ("parameter", "Enumeration", None), "wall.E": ("parameter", "Real", "Pa"),
-    "wall.nu": ("parameter", "Real", None), "wall.rho": ("parameter", "Real", "kg/m3"),
-    "contact.stiffness": ("parameter", "Real", "Pa/m"), "gravity": ("parameter", "Real", "m/s2"),
-    "model.fidelity": ("parameter", "Enumeration", None), "model.mesh_size": ("parameter", "Real", "m"),
-    "model.order": ("parameter", "Integer", None), "model.compute_stress": ("parameter", "Boolean", None),
-    "solver.max_step": ("parameter", "Real", "s"), "solver.tolerance": ("parameter", "Real", None),
+    "torque": ("input", "Real", "N.m"),
+    "theta": ("output", "Real", "rad"),
+    "omega": ("output", "Real", "rad/s"),
+    "gap": ("output", "Real", "m"),
+    "contact_force": ("output", "Real", "N"),
+    **{
+        f"energy.{e}": ("output", "Real", "J")
+        for e in ("kinetic", "potential", "strain", "contact", "total", "torque_work")
+    },
+    "stress.von_mises_max": ("output", "Real", "Pa"),
+    "solver.substeps": ("output", "Integer", None),
+    "theta0": ("parameter", "Real", "rad"),
+    "omega0": ("parameter", "Real", "rad/s"),
+    "pendulum.E": ("parameter", "Real", "Pa"),
+    "pendulum.nu": ("parameter", "Real", None),
+    "pendulum.rho": ("parameter", "Real", "kg/m3"),
+    "pendulum.thickness": ("parameter", "Real", "m"),
+    "wall.kind": ("parameter", "Enumeration", None),
+    "wall.E": ("parameter", "Real", "Pa"),
+    "wall.nu": ("parameter", "Real", None),
+    "wall.rho": ("parameter", "Real", "kg/m3"),
+    "contact.stiffness": ("parameter", "Real", "Pa/m"),
+    "gravity": ("parameter", "Real", "m/s2"),
+    "model.fidelity": ("parameter", "Enumeration", None),
+    "model.mesh_size": ("parameter", "Real", "m"),
+    "model.order": ("parameter", "Integer", None),
+    "model.compute_stress": ("parameter", "Boolean", None),
+    "solver.max_step": ("parameter", "Real", "s"),
+    "solver.tolerance": ("parameter", "Real", None),
 }
 
 
@@ -42,8 +58,15 @@ def test_the_design_contract_is_declared():
         assert (v.causality, v.type, v.unit) == (causality, typ, unit), name
     assert ifc.by_name("theta").display_unit == "deg" and ifc.by_name("theta0").display_unit == "deg"
     extra = {v.name for v in ifc.variables} - set(CONTRACT)
-    assert extra == {"model.threads", "wall.kind_index", "model.fidelity_index", "model.modes",
-                     "solver.max_substeps", "solver.scheme", "gap_min"}
+    assert extra == {
+        "model.threads",
+        "wall.kind_index",
+        "model.fidelity_index",
+        "model.modes",
+        "solver.max_substeps",
+        "solver.scheme",
+        "gap_min",
+    }
     assert [v.value_reference for v in ifc.variables] == list(range(len(ifc.variables)))
 
 
@@ -84,8 +107,12 @@ def test_the_slave_builds_the_scene_its_parameters_describe():
     assert slave.scene() == Scene()
     slave.values.update({"pendulum.E": 1e6, "wall.kind": 3, "model.fidelity": 2, "model.compute_stress": True})
     scene = slave.scene()
-    assert (scene.pendulum.E, scene.wall.kind, scene.model.fidelity, scene.model.compute_stress) == \
-        (1e6, "none", "rigid", True)
+    assert (scene.pendulum.E, scene.wall.kind, scene.model.fidelity, scene.model.compute_stress) == (
+        1e6,
+        "none",
+        "rigid",
+        True,
+    )
     slave.values.update({"wall.kind_index": 1, "model.fidelity_index": 4})  # an explicit Integer setting wins
     assert (slave.scene().wall.kind, slave.scene().model.fidelity) == ("rigid", "fem")
     slave.values["wall.kind"] = 7
@@ -119,8 +146,12 @@ def test_template_is_complete_fmi():
 def test_readme_variable_table_is_generated_from_the_template():
     text = (ROOT / "README.md").read_text()
     start, end = "<!-- interface-table:start -->", "<!-- interface-table:end -->"
-    table = text[text.index(start) + len(start):text.index(end)].strip()
+    table = text[text.index(start) + len(start) : text.index(end)].strip()
     assert table == interface.markdown_table().strip()
-    printed = subprocess.run([str(Path(sys.executable).parent / "fem-pendulum"), "interface", "--markdown"], check=True,
-                             capture_output=True, text=True).stdout
+    printed = subprocess.run(
+        [str(Path(sys.executable).parent / "fem-pendulum"), "interface", "--markdown"],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout
     assert printed.strip() == table
