@@ -1,8 +1,8 @@
 """Reads modelDescription.template.xml, the one declaration of the FMI interface.
 
-The slave registers its variables from it, build_fmu.py renders it into the
-FMU's modelDescription.xml, and `python -m fem_pendulum_fmu.fmi.interface
---markdown` prints the README's variable table from it.
+The slave registers its variables from it, the builder (fmi/builder.py) renders it
+into the FMU's modelDescription.xml, and `fem-pendulum interface --markdown`
+prints the README's variable table from it.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Controller in the loop: PID controller FMU + torque-limited drive + pendulum FMU, fixed-step master.
 
-    fem-pendulum-control [--fmu dist/FemPendulum.fmu] [--pid dist/PidController.fmu]
+    fem-pendulum control [--fmu dist/FemPendulum.fmu] [--pid dist/PidController.fmu]
                          [--stop-time 2] [--step 1e-3] [--set NAME=VALUE ...] [--out out/control]
 
 After the syssimx case study: the set-point is a 20-degree sine at 0.75 Hz,

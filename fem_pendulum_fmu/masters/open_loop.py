@@ -1,6 +1,6 @@
 """Open-loop master: a torque profile in, a results CSV and a PNG plot out (fmpy).
 
-    fem-pendulum-run [--fmu dist/FemPendulum.fmu] [--torque examples/torque_pulse.csv]
+    fem-pendulum run [--fmu dist/FemPendulum.fmu] [--torque examples/torque_pulse.csv]
                      [--stop-time 2] [--step 1e-3] [--set model.fidelity=fem ...] [--out out/run]
 
 The torque CSV has columns time,torque; fmpy interpolates linearly, so a step
