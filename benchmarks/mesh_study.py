@@ -11,11 +11,11 @@ gap differences against the finest discretisation of the list.
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 import numpy as np
 
+from fem_pendulum_fmu.physics.mass_properties import swing_energy
 from fem_pendulum_fmu.physics.models.fem import FemModel
 from fem_pendulum_fmu.physics.scene import PRESETS
 
@@ -25,7 +25,7 @@ CASES = ((0.06, 2), (0.03, 2), (0.03, 3), (0.015, 2), (0.015, 3))
 def run(preset: str, size: float, order: int, t_end: float) -> dict:
     model = FemModel(PRESETS[preset](**{"model.mesh_size": size, "model.order": order}))
     e0 = model.outputs().total
-    swing = model.total_mass * 9.81 * model.com_depth * (1 - math.cos(math.radians(20)))
+    swing = swing_energy(model.scene)
     rows = []
     t0 = time.perf_counter()
     for i in range(1, int(round(t_end * 1000)) + 1):

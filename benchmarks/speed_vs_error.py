@@ -47,6 +47,7 @@ RUNS = Path(os.environ.get("SPEED_VS_ERROR_RUNS", Path(tempfile.gettempdir()) / 
 DOC = ROOT / "docs" / "speed_vs_error.md"
 COMM_STEP = 1e-3
 SWING_DEG = 20.0  # swing energy: the 20-degree swing every scene is about
+REBOUND_SPEED = 0.02  # rad/s: a rebound turns omega from faster than this towards the wall
 DIVERGED = 10.0  # a run whose energy error exceeds this many swing energies is stopped as diverged
 RECORDED = ("theta", "omega", "gap", "gap_min", "contact_force", "energy.total", "energy.torque_work")
 
@@ -291,7 +292,7 @@ def run_once(case: SceneCase, values: dict, fmus: tuple[Path, Path], t_end: floa
             "pid": str(fmus[1]),
             "values": fmi_values(case, values),
             "loop": case.loop,
-            "abort_energy": DIVERGED * swing_energy(case),
+            "abort_energy": DIVERGED * case_swing_energy(case),
             "t_end": case.t_end if t_end is None else t_end,
             "out": str(out),
         }
@@ -315,21 +316,19 @@ def run_once(case: SceneCase, values: dict, fmus: tuple[Path, Path], t_end: floa
 # ------------------------------------------------------------------ metrics
 
 
-def swing_energy(case: SceneCase) -> float:
-    """m g d (1 - cos 20 deg) of the scene's pendulum: the energy of the swing every scene is about."""
-    from fem_pendulum_fmu.physics.models.rigid import geometry_moments
+def case_swing_energy(case: SceneCase) -> float:
+    """m g d (1 - cos 20 deg) of the case's pendulum: the energy of the swing every scene is about."""
+    from fem_pendulum_fmu.physics.mass_properties import swing_energy
 
-    scene = scene_of(case)
-    area, first_moment, _ = geometry_moments(scene.geometry)
-    mgd = scene.pendulum.rho * scene.pendulum.thickness * scene.gravity * (-first_moment)
-    return mgd * (1.0 - math.cos(math.radians(SWING_DEG)))
+    return swing_energy(scene_of(case), math.radians(SWING_DEG))
 
 
-def rebounds(omega: np.ndarray, gap: np.ndarray, band: float = 1e-3, speed: float = 0.02) -> np.ndarray:
-    """Sample intervals in which omega turns from towards the wall (faster than `speed` rad/s, so
-    that a pendulum resting on the wall does not count) to away from it with the gap under `band`
-    at one end (as controller_loop.wall_impacts): one per rebound."""
-    return np.nonzero((omega[:-1] < -speed) & (omega[1:] > 0) & ((gap[:-1] < band) | (gap[1:] < band)))[0]
+def rebounds(omega: np.ndarray, gap: np.ndarray, band: float = 1e-3) -> np.ndarray:
+    """physics.swing.rebounds of a pendulum moving towards the wall faster than REBOUND_SPEED
+    (a pendulum resting on the wall does not count): one per rebound."""
+    from fem_pendulum_fmu.physics import swing
+
+    return swing.rebounds(omega, gap, band, speed=REBOUND_SPEED)
 
 
 def early_window(ref: dict) -> int:
@@ -455,7 +454,7 @@ def make_references(case_names: list[str], fmus: tuple[Path, Path]) -> None:
     REFERENCES.mkdir(parents=True, exist_ok=True)
     for name in case_names:
         case = SCENE[name]
-        swing = swing_energy(case)
+        swing = case_swing_energy(case)
         levels = [("default", {"model.fidelity": "fem"})] + [
             (lab, {"model.fidelity": "fem", **v}) for lab, v in REFERENCE_LEVELS
         ]
@@ -506,7 +505,7 @@ def recheck_references(case_names: list[str], fmus: tuple[Path, Path]) -> None:
         case, path = SCENE[name], REFERENCES / f"{name}.npz"
         ref = load_reference(name)
         run = run_once(case, {"model.fidelity": "fem", **values}, fmus)
-        check = metrics(run, ref, swing_energy(case))
+        check = metrics(run, ref, case_swing_energy(case))
         check.update(coarse=label, fine=ref["meta"]["level"], fine_penetration=penetration(ref))
         meta = ref["meta"]
         meta["convergence"] = [c for c in meta["convergence"] if c["coarse"] != label] + [check]
@@ -572,7 +571,7 @@ def measure(
         "failed": first.failed,
         "signals": str(signals),
         "code": code_version(),
-        "metrics": metrics(first, ref, swing_energy(case)) if ref is not None else None,
+        "metrics": metrics(first, ref, case_swing_energy(case)) if ref is not None else None,
         "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="minutes"),
     }
     return row

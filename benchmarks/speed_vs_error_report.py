@@ -31,7 +31,7 @@ def load_rows() -> list[dict]:
         run = bench.load_signals(r.get("signals", ""))
         ref = refs.get(r["scene"])
         if run is not None and ref is not None:
-            r["metrics"] = bench.metrics(run, ref, bench.swing_energy(bench.SCENE[r["scene"]]))
+            r["metrics"] = bench.metrics(run, ref, bench.case_swing_energy(bench.SCENE[r["scene"]]))
     bench.RESULTS.write_text("".join(json.dumps(r) + "\n" for r in rows))
     return rows
 
