@@ -126,9 +126,10 @@ elif what == "gauss-default":  # the default scene released at 20 degrees, 0.5 s
     print(json.dumps({"case": what, "points": n, "worst_J": w, "s": secs}))
 elif what == "quadrature":  # rubber (order 3), 2 N.m held in 0.1 ms steps: the energy guard, and the rules used before
     import fem_pendulum_fmu.physics.models.fem as fem
+    import fem_pendulum_fmu.physics.models.fem_outputs as fem_outputs
     from fem_pendulum_fmu.physics.models import StepFailed
     from ngsolve import BND
-    integrate, variant = fem.Integrate, sys.argv[2]
+    integrate, variant = fem_outputs.Integrate, sys.argv[2]
     if variant != "guard":
         fem.STEP_ENERGY_TOLERANCE = math.inf
 
@@ -138,7 +139,7 @@ elif what == "quadrature":  # rubber (order 3), 2 N.m held in 0.1 ms steps: the 
         if variant == "no-guard-old-strain-rule" and not args and kwargs.get("order") == 6:
             kwargs["order"] = 8  # the strain energy with 2 order + 2 instead of the forms' 2 order
         return integrate(cf, mesh, *args, **kwargs)
-    fem.Integrate = patched
+    fem_outputs.Integrate = patched  # the torque work's and the strain energy's integrals
     m = create(compliant(**{"model.mesh_size": 0.06, "theta0": 0.0}))
     e0 = m.outputs().total
     try:

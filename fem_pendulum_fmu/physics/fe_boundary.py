@@ -9,8 +9,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import ngsolve as ngs
 import numpy as np
-from ngsolve import BND, CF, Integrate, IntegrationRule, SEGM, specialcf, x, y
+from ngsolve import BND, CF, SEGM, Integrate, IntegrationRule, specialcf, x, y
 
 from .scene import PendulumGeometry
 
@@ -25,7 +26,7 @@ class HeadPoints:
     elements: np.ndarray  # (E,) mesh boundary element numbers of the head, in the points' order
 
 
-def head_points(mesh, order: int) -> HeadPoints:
+def head_points(mesh: ngs.Mesh, order: int) -> HeadPoints:
     """The head boundary's Gauss points of a rule exact to `order`, and their arc-length weights."""
     rule = IntegrationRule(SEGM, order)
     points = mesh.MapToAllElements(rule, mesh.Boundaries("head"))
@@ -35,7 +36,7 @@ def head_points(mesh, order: int) -> HeadPoints:
     return HeadPoints(rule, points, weights, np.array(head_els))
 
 
-def hinge_torque_load(mesh, geometry: PendulumGeometry):
+def hinge_torque_load(mesh: ngs.Mesh, geometry: PendulumGeometry) -> tuple[ngs.CoefficientFunction, float]:
     """(weight, scale): the hinge edge's load weight x / w (a coefficient function) and the factor
     1 / int weight (x N_y - y N_x) ds that makes the moment of scale * weight * N one."""
     N = specialcf.normal(2)

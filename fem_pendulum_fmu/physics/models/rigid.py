@@ -133,6 +133,32 @@ class RigidModel(SteppedModel):
             return None
         return (q0 + u, 2.0 * u / dt - w0, work + torque * u)
 
+    def _potential_quotient(self, q0: float, u: float, e0: float) -> tuple[float, float]:
+        """(V(q0 + u) - V(q0)) / u for V = gravity + contact, and its derivative in u; e0 = contact energy at q0."""
+        mgd = self._mgd
+        h = 0.5 * u
+        qm = q0 + h
+        # gravity difference quotient, cancellation-free: mgd sin(qm) sin(h)/h
+        if abs(h) > 1e-4:
+            sinc, dsinc = math.sin(h) / h, (h * math.cos(h) - math.sin(h)) / (h * h)
+        else:
+            h2 = h * h
+            sinc, dsinc = 1.0 - h2 / 6.0 + h2 * h2 / 120.0, h * (-1.0 / 3.0 + h2 / 30.0)
+        s_m, c_m = math.sin(qm), math.cos(qm)
+        quot = mgd * s_m * sinc
+        dquot = 0.5 * mgd * (c_m * sinc + s_m * dsinc)
+        if self.contact_on:
+            pen = self._contact(q0 + u)[1]
+            if abs(u) > SMALL_STEP:
+                qc = (pen.energy - e0) / u
+                dqc = (pen.d_energy - qc) / u if abs(u) > 1e-6 else 0.5 * pen.d2_energy
+            else:  # E'(midpoint) to O(u^2)
+                qc = pen.d_energy - 0.5 * u * pen.d2_energy
+                dqc = 0.5 * pen.d2_energy
+            quot += qc
+            dquot += dqc
+        return quot, dquot
+
     def _solve(self, q0: float, w0: float, dt: float, torque: float) -> float | None:
         """The increment u = q1 - q0 solving G(u) = 0 (Newton, safeguarded by a bracket)."""
         c = 2.0 * self.inertia / (dt * dt)
@@ -141,27 +167,7 @@ class RigidModel(SteppedModel):
         e0 = self._contact(q0)[1].energy if contact else 0.0
 
         def residual(u: float) -> tuple[float, float]:
-            h = 0.5 * u
-            qm = q0 + h
-            # gravity difference quotient, cancellation-free: mgd sin(qm) sin(h)/h
-            if abs(h) > 1e-4:
-                sinc, dsinc = math.sin(h) / h, (h * math.cos(h) - math.sin(h)) / (h * h)
-            else:
-                h2 = h * h
-                sinc, dsinc = 1.0 - h2 / 6.0 + h2 * h2 / 120.0, h * (-1.0 / 3.0 + h2 / 30.0)
-            s_m, c_m = math.sin(qm), math.cos(qm)
-            quot = mgd * s_m * sinc
-            dquot = 0.5 * mgd * (c_m * sinc + s_m * dsinc)
-            if contact:
-                pen = self._contact(q0 + u)[1]
-                if abs(u) > SMALL_STEP:
-                    qc = (pen.energy - e0) / u
-                    dqc = (pen.d_energy - qc) / u if abs(u) > 1e-6 else 0.5 * pen.d2_energy
-                else:  # E'(midpoint) to O(u^2)
-                    qc = pen.d_energy - 0.5 * u * pen.d2_energy
-                    dqc = 0.5 * pen.d2_energy
-                quot += qc
-                dquot += dqc
+            quot, dquot = self._potential_quotient(q0, u, e0)
             return c * (u - dt * w0) - torque + quot, c + dquot
 
         # predictor: explicit step with the force at q0

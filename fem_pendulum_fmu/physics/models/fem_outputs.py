@@ -1,0 +1,141 @@
+"""The FE model's outputs of a state: energies, the rigid-body proxy angle and rate, gap, contact
+force, stress; and the two per-step measures the step needs (torque work, smallest det F).
+
+The linear functionals and matrices are assembled once; a state's u and v are
+loaded into the space's evaluation fields.
+"""
+from __future__ import annotations
+
+import math
+
+import ngsolve as ngs
+import numpy as np
+from ngsolve import BND, VOL, BilinearForm, Cof, Grad, Id, InnerProduct, Integrate, IntegrationRule, LinearForm, x, y
+
+from .. import contact as wall_contact
+from .. import material
+from ..protocol import Outputs
+from .fem_head import HeadBoundary
+from .fem_schemes import StepInputs
+from .fem_space import FemSpace, FemState
+
+
+class FemOutputs:
+    """Outputs of FE states (with the mass measures of the pendulum as meshed)."""
+
+    def __init__(self, space: FemSpace, inputs: StepInputs, head: HeadBoundary):
+        self._space, self._head = space, head
+        sc, mesh, V = space.scene, space.mesh, space.V
+        h, g = sc.pendulum.thickness, sc.gravity
+        uu, vv = V.TnT()
+        mass_form = BilinearForm(V)
+        pot_form = LinearForm(V)
+        for region, mat in space.bodies:
+            mass_form += mat.rho * h * InnerProduct(uu, vv) * ngs.dx(region)
+            pot_form += mat.rho * h * g * vv[1] * ngs.dx(region)
+        self.mass = mass_form.Assemble().mat
+        self.l_pot = pot_form.Assemble().vec.FV().NumPy().copy()
+        rho = sc.pendulum.rho
+        dxp = ngs.dx("pendulum")
+        self.mass_p = BilinearForm(rho * h * InnerProduct(uu, vv) * dxp).Assemble().mat
+        self.cross = BilinearForm(rho * h * (uu[0] * vv[1] - uu[1] * vv[0]) * dxp).Assemble().mat
+        self.l_pos = LinearForm(rho * h * InnerProduct(space.pos, vv) * dxp).Assemble().vec.FV().NumPy().copy()
+        self.l_rot = LinearForm(rho * h * (x * vv[1] - y * vv[0]) * dxp).Assemble().vec.FV().NumPy().copy()
+        self.pot0 = sum(Integrate(mat.rho * h * g * y, mesh, definedon=mesh.Materials(r)) for r, mat in space.bodies)
+        self.inertia0 = Integrate(rho * h * (x * x + y * y), mesh, definedon=mesh.Materials("pendulum"))
+        self.total_mass = Integrate(rho * h, mesh, definedon=mesh.Materials("pendulum"))
+        self.com_depth = -Integrate(rho * h * y, mesh, definedon=mesh.Materials("pendulum")) / self.total_mass
+        self._build_fields(space, inputs)
+
+    def _build_fields(self, space: FemSpace, inputs: StepInputs) -> None:
+        """Coefficient functions of the evaluation fields gf_u (configuration) and gf_v."""
+        sc, gf_u = space.scene, space.gf_u
+        h = sc.pendulum.thickness
+        # work of a unit torque's follower load at the configuration gf_u over the displacement gf_v
+        N = ngs.specialcf.normal(2)
+        unit_load = inputs.torque_scale * inputs.torque_weight * (Cof(Id(2) + Grad(gf_u).Trace()) * N)
+        self._unit_torque_work_cf = InnerProduct(unit_load, space.gf_v)
+        F = material.deformation_gradient(gf_u)
+        C = material.right_cauchy_green(F)
+        self._strain_cf = [(r, h * material.energy_density(C, *mat.lame)) for r, mat in space.bodies]
+        self._von_mises_cf = material.von_mises_plane_stress(F, *sc.pendulum.lame)
+        # det F at the volume integration points of the forms (psi depends on det C = det F^2 only,
+        # so an inverted element has finite energy and Newton can converge to it: checked per step)
+        self._det_F_cf = ngs.Det(F)
+        self._volume_points = space.mesh.MapToAllElements(IntegrationRule(ngs.TRIG, 2 * sc.model.order), VOL)
+        if space.contact_on:
+            k = sc.contact.stiffness
+            d, grad = wall_contact.depth_and_gradient(space.pos + gf_u, sc.block)
+            self._contact_energy_cf = h * wall_contact.penalty_energy(d, k)
+            self._contact_force_cf = h * ngs.IfPos(d, k * d, 0.0) * (-grad)
+
+    def torque_work_increment(self, u0: np.ndarray, u1: np.ndarray, torque: float) -> float:
+        """Work of the follower load at the midpoint configuration over the step."""
+        if torque == 0.0:
+            return 0.0
+        space = self._space
+        space.gf_u.vec.FV().NumPy()[:] = 0.5 * (u0 + u1)
+        space.gf_v.vec.FV().NumPy()[:] = u1 - u0
+        # exact for the integrand's degree 2 order (Cof F, x and u); the default rule (order 5) lost
+        # up to 15 % of the work when the rubber hinge edge deformed strongly (docs/robustness.md)
+        order = 2 * space.scene.model.order + 2
+        return torque * float(Integrate(self._unit_torque_work_cf, space.mesh, BND, order=order,
+                                        definedon=space.mesh.Boundaries("hinge")))
+
+    def min_det_F(self, u: np.ndarray) -> float:
+        """Smallest det F of the displacement u at the integration points of every element."""
+        self._space.gf_u.vec.FV().NumPy()[:] = u
+        return float(np.min(self._det_F_cf(self._volume_points)))
+
+    def _rotation(self, u: np.ndarray, v: np.ndarray) -> tuple[float, float]:
+        """Best-fit rigid rotation of the displacement, and angular velocity about the pivot
+        (u and v loaded in the evaluation fields)."""
+        space = self._space
+        s_num = float(self.l_rot @ u)
+        c_num = self.inertia0 + float(self.l_pos @ u)
+        theta = math.atan2(s_num, c_num)
+        Cv = (self.cross * space.gf_v.vec).Evaluate().FV().NumPy()
+        Mu = (self.mass_p * space.gf_u.vec).Evaluate().FV().NumPy()
+        ang_mom = float(self.l_rot @ v) - float(u @ Cv)  # u @ (cross v) = -int rho h (u x v): rows are test functions
+        inertia = self.inertia0 + 2.0 * float(self.l_pos @ u) + float(u @ Mu)
+        return theta, ang_mom / inertia
+
+    def _contact(self, u: np.ndarray, light: bool) -> tuple[float, float]:
+        """(contact energy, contact force); light: the energy only (force 0) for the rigid wall."""
+        space, c_force = self._space, 0.0
+        if space.wall_contact_on:
+            return self._head.meshed_wall_contact(u)
+        if not space.contact_on:
+            return 0.0, c_force
+        mesh, order = space.mesh, space.contact_order
+        head = mesh.Boundaries("head")
+        c_energy = float(Integrate(self._contact_energy_cf, mesh, BND, order=order, definedon=head))
+        if not light:
+            fvec = Integrate(self._contact_force_cf, mesh, BND, order=order, definedon=head)
+            c_force = float(math.hypot(fvec[0], fvec[1]))
+        return c_energy, c_force
+
+    def of(self, s: FemState, t: float, substeps: int, light: bool = False) -> Outputs:
+        """All outputs of a state; light: the energies only (for the energy guard)."""
+        space = self._space
+        mesh, u, v = space.mesh, s.u, s.v
+        space.gf_u.vec.FV().NumPy()[:] = u
+        space.gf_v.vec.FV().NumPy()[:] = v
+        Mv = (self.mass * space.gf_v.vec).Evaluate().FV().NumPy()
+        kinetic = 0.5 * float(v @ Mv)
+        potential = self.pot0 + float(self.l_pot @ u)
+        theta, omega = (0.0, 0.0) if light else self._rotation(u, v)
+        # the forms' own rule (2 order): the scheme conserves the strain energy integrated so; a finer
+        # rule differed by up to 3 % of the work in the crushed rubber hinge (docs/robustness.md)
+        strain = sum(float(Integrate(cf, mesh, order=2 * space.scene.model.order, definedon=mesh.Materials(region)))
+                     for region, cf in self._strain_cf)
+        c_energy, c_force = self._contact(u, light)
+        gap = self._head.closest_point(s).gap if not light else 0.0
+        vm = 0.0
+        if space.scene.model.compute_stress and not light:
+            space.gf_u.vec.FV().NumPy()[:] = u
+            vm = float(np.max(self._von_mises_cf(mesh.MapToAllElements(IntegrationRule(ngs.TRIG, 4), VOL))))
+        total = kinetic + potential + strain + c_energy
+        return Outputs(time=t, theta=theta, omega=omega, gap=gap, contact_force=c_force, kinetic=kinetic,
+                       potential=potential, strain=strain, contact=c_energy, total=total,
+                       torque_work=s.torque_work, von_mises_max=vm, substeps=substeps, min_gap=gap)

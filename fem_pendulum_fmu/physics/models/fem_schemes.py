@@ -1,0 +1,275 @@
+"""The FE model's two time integration schemes: each a builder of its step form, plus its few rules.
+
+* `EnergyMomentum` (solver.scheme = energy_momentum, the model's own): the
+  inertia is the midpoint rule, the elastic stress is the discrete gradient of
+  the strain energy in C (material.averaged_pk2_stress pushed forward with F at
+  the midpoint), contact is the discrete-gradient penalty force of contact.py
+  and the follower torque acts at the midpoint configuration. Over every step
+  the change of kinetic + gravity + strain + contact energy equals the work of
+  the torque up to the Newton tolerance, so impacts neither gain nor lose energy.
+* `SeedNewmark` (newmark_fixed, newmark_gap_rule): the seed tutorial's
+  trapezoidal Newmark rule (beta 1/4, gamma 1/2; stress, contact and torque at
+  the step's end) with the seed's step-size rules (seed_stepping.py), on the
+  same mesh, material and contact law: kept only so that the benchmarks can
+  compare the seed's schemes with ours on equal terms.
+
+A step form is the residual of one step in the unknowns (u1, hinge
+multipliers); its linearisation is the Newton Jacobian (fem_newton.py). It
+reads the step's start state, size and torque from `StepInputs`.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import ngsolve as ngs
+import numpy as np
+from ngsolve import (
+    BND,
+    CF,
+    BilinearForm,
+    CoefficientFunction,
+    Cof,
+    Grad,
+    GridFunction,
+    Id,
+    InnerProduct,
+    Parameter,
+    specialcf,
+)
+
+from .. import contact as wall_contact
+from .. import material, seed_stepping, stepping
+from ..fe_boundary import hinge_torque_load
+from ..scene import Material, Scene
+from .fem_space import FemSpace, FemState
+
+if TYPE_CHECKING:
+    from .fem import FemModel
+
+WALL_SEARCH_DISTANCE = 0.005  # m; ContactBoundary pairing radius
+WALL_CONTACT_INTORDER = 6
+
+
+@dataclass
+class StepInputs:
+    """What a step form reads besides its unknowns: the start state, the step size and the torque load."""
+
+    u0: GridFunction
+    v0: GridFunction
+    a0: GridFunction  # start acceleration: read by the Newmark form only
+    dt: Parameter
+    torque_load: Parameter  # the torque times torque_scale
+    torque_weight: object  # the hinge edge's load weight x / w (coefficient function)
+    torque_scale: float  # 1 / moment of the unit-weight load
+
+    def set(self, u0: np.ndarray, v0: np.ndarray, dt: float, torque: float) -> None:
+        self.dt.Set(dt)
+        self.torque_load.Set(torque * self.torque_scale)
+        self.u0.vec.FV().NumPy()[:] = u0
+        self.v0.vec.FV().NumPy()[:] = v0
+
+
+def step_inputs(space: FemSpace) -> StepInputs:
+    weight, scale = hinge_torque_load(space.mesh, space.scene.geometry)
+    V = space.V
+    return StepInputs(GridFunction(V), GridFunction(V), GridFunction(V), Parameter(1e-3), Parameter(0.0), weight, scale)
+
+
+@dataclass
+class StepForm:
+    """The residual form of one step and its contact parts."""
+
+    form: BilinearForm
+    active: object | None  # ngsolve BitArray: head elements with rigid-wall contact assembled (None: no such contact)
+    wall_contact: object | None  # ngsolve ContactBoundary of the meshed wall (None: not meshed, or k = 0)
+
+    def update_wall_pairs(self, u0: GridFunction) -> None:
+        """Pair the meshed wall's face with the head at the displacement u0 (nothing without that wall)."""
+        if self.wall_contact is not None:
+            self.wall_contact.Update(u0, self.form, intorder=WALL_CONTACT_INTORDER, maxdist=WALL_SEARCH_DISTANCE)
+
+
+# ------------------------------------------------------------------ pieces both forms are made of
+Terms = tuple[CoefficientFunction, CoefficientFunction]  # (inertia, first Piola-Kirchhoff stress) of a body
+
+
+def _bodies_form(space: FemSpace, du: CoefficientFunction,
+                 inertia_and_stress: Callable[[Material], Terms]) -> BilinearForm:
+    """Each body's inertia, elastic stress and gravity; inertia_and_stress(material) -> (inertia, P)."""
+    sc = space.scene
+    h = sc.pendulum.thickness
+    gvec = CF((0.0, -sc.gravity))
+    form = BilinearForm(space.X)
+    for region, mat in space.bodies:
+        inertia, elastic = inertia_and_stress(mat)
+        form += (mat.rho * h * InnerProduct(inertia, du)
+                 + h * InnerProduct(elastic, Grad(du))
+                 - mat.rho * h * InnerProduct(gvec, du)).Compile() * ngs.dx(region)
+    return form
+
+
+def _add_hinge_and_torque(form: BilinearForm, trial: tuple, test: tuple, inputs: StepInputs,
+                          F_hinge: CoefficientFunction) -> None:
+    """Hinge: mean displacement of the hinge edge is zero (Lagrange multipliers q1, q2). Follower
+    torque: line load p(X) * Cof(F) N on the hinge edge, F the scheme's deformation gradient there."""
+    (u, q1, q2), (du, p1, p2) = trial, test
+    form += (q1 * du[0] + q2 * du[1] + p1 * u[0] + p2 * u[1]) * ngs.ds("hinge")
+    N = specialcf.normal(2)
+    form += -InnerProduct(inputs.torque_load * inputs.torque_weight * (Cof(F_hinge) * N), du) * ngs.ds("hinge")
+
+
+def _add_rigid_wall(form: BilinearForm, space: FemSpace, du: CoefficientFunction,
+                    force: CoefficientFunction) -> ngs.BitArray:
+    """The penalty force on the head's outer boundary, assembled only on head elements that can
+    reach the block within the step (the returned BitArray, empty until the step marks them)."""
+    mesh, order = space.mesh, space.scene.model.order
+    active = ngs.BitArray(mesh.GetNE(BND))
+    active.Clear()
+    form += (-space.scene.pendulum.thickness * InnerProduct(force, du)).Compile() * ngs.ds(
+        "head", bonus_intorder=space.contact_order - 2 * order, definedonelements=active)
+    return active
+
+
+def _meshed_wall_contact(space: FemSpace, um: CoefficientFunction, um_head: CoefficientFunction) -> ngs.ContactBoundary:
+    """Penalty on the gap at the displacements um (wall side) and um_head, integrated on the wall face;
+    pairs are found at the step start. deformed=False: integrated on the reference face (the energy must
+    not depend on the configuration through the measure; with deformed=True an impact gained 9 % energy).
+    Phi(g) = k/2 g^2 is quadratic, so the midpoint force is the exact discrete gradient while a point
+    stays in contact; only the entry and exit of a point are approximate."""
+    mesh, pos = space.mesh, space.pos
+    h, k = space.scene.pendulum.thickness, space.scene.contact.stiffness
+    cb = ngs.ContactBoundary(mesh.Boundaries("wall_face"), mesh.Boundaries("head"))
+    pen = InnerProduct((pos + um) - (pos.Other() + um_head), specialcf.normal(2))
+    cb.AddEnergy(ngs.IfPos(pen, 2.0 * h * 0.5 * k * pen * pen, 0.0), deformed=False)
+    return cb
+
+
+# ------------------------------------------------------------------ the two builders
+def energy_momentum_form(space: FemSpace, inputs: StepInputs) -> StepForm:
+    """Midpoint inertia, discrete-gradient stress and contact, torque at the midpoint configuration."""
+    trial, test = space.X.TnT()
+    u, du = trial[0], test[0]
+    u0, v0, dt = inputs.u0, inputs.v0, inputs.dt
+    F0, F1 = material.deformation_gradient(u0), material.deformation_gradient(u)
+    Fm = 0.5 * (F0 + F1)
+    C0, C1 = material.right_cauchy_green(F0), material.right_cauchy_green(F1)
+
+    def inertia_and_stress(mat: Material) -> Terms:
+        # Gauss points of the discrete gradient (docs/robustness.md): for steel one point lost up to
+        # 0.5 % of the energy after violent impacts (strains ~3e-3), two: 4e-4 J of 280 J; rubber at
+        # 50 % strain drifted 9 % of a pulse's work in 40 ms with two points, 0.8 % with three
+        dg_points = 2 if mat.E / mat.rho > 1e5 else 3
+        inertia = (2.0 / (dt * dt)) * (u - u0 - dt * v0)
+        return inertia, Fm * material.averaged_pk2_stress(C0, C1, *mat.lame, dg_points)
+
+    form = _bodies_form(space, du, inertia_and_stress)
+    _add_hinge_and_torque(form, trial, test, inputs, Id(2) + 0.5 * (Grad(u).Trace() + Grad(u0).Trace()))
+    active = None
+    if space.contact_on:
+        pos, sc = space.pos, space.scene
+        force = wall_contact.discrete_gradient_force(pos + u0, pos + u, sc.block, sc.contact.stiffness)
+        active = _add_rigid_wall(form, space, du, force)
+    wall = None
+    if space.wall_contact_on:
+        wall = _meshed_wall_contact(space, 0.5 * (u + u0), 0.5 * (u.Other() + u0.Other()))
+    return StepForm(form, active, wall)
+
+
+def newmark_form(space: FemSpace, inputs: StepInputs) -> StepForm:
+    """Trapezoidal Newmark: a1 = 4/dt^2 (u1 - u0 - dt v0) - a0, equilibrium (stress, contact, torque) at the end."""
+    trial, test = space.X.TnT()
+    u, du = trial[0], test[0]
+    u0, v0, a0, dt = inputs.u0, inputs.v0, inputs.a0, inputs.dt
+    F1 = material.deformation_gradient(u)
+    C1 = material.right_cauchy_green(F1)
+
+    def inertia_and_stress(mat: Material) -> Terms:
+        inertia = (4.0 / (dt * dt)) * (u - u0 - dt * v0) - a0
+        return inertia, F1 * material.pk2_stress(C1, *mat.lame)
+
+    form = _bodies_form(space, du, inertia_and_stress)
+    _add_hinge_and_torque(form, trial, test, inputs, Id(2) + Grad(u).Trace())
+    active = None
+    if space.contact_on:
+        sc = space.scene
+        d1, grad1 = wall_contact.depth_and_gradient(space.pos + u, sc.block)
+        force = -ngs.IfPos(d1, sc.contact.stiffness * d1, 0.0) * grad1
+        active = _add_rigid_wall(form, space, du, force)
+    wall = _meshed_wall_contact(space, u, u.Other()) if space.wall_contact_on else None
+    return StepForm(form, active, wall)
+
+
+# ------------------------------------------------------------------ the schemes
+class EnergyMomentum:
+    """The FE model's own scheme, stepped by stepping.py."""
+
+    build = staticmethod(energy_momentum_form)
+    carries_acceleration = False
+
+    def __init__(self, scene: Scene):
+        # compliant bodies: each step's energy balance is checked (FemModel.step)
+        self.energy_guard = scene.pendulum.E / scene.pendulum.rho <= 1e5
+
+    def start(self, model: FemModel, state: FemState) -> FemState:
+        return state
+
+    def prepare(self, inputs: StepInputs, xs: FemState) -> None:
+        """Nothing beyond the start state, size and torque."""
+
+    def end_acceleration(self, xs: FemState, v1: np.ndarray, dt: float) -> None:
+        return None
+
+    def advance(self, model: FemModel, state: FemState, t: float, t_end: float, torque: float,
+                control: stepping.StepControl) -> stepping.AdvanceResult:
+        return stepping.advance(model, state, t, t_end, torque, control)
+
+
+class SeedNewmark:
+    """The seed tutorial's trapezoidal Newmark rule with its step-size rules (`name`: newmark_fixed or
+    newmark_gap_rule); its state carries the acceleration."""
+
+    build = staticmethod(newmark_form)
+    carries_acceleration = True
+    energy_guard = False
+
+    def __init__(self, scene: Scene):
+        self.name = scene.solver.scheme
+
+    def start(self, model: FemModel, state: FemState) -> FemState:
+        """The state with Newmark's start acceleration from the equations of motion (M a0 = f(u0), hinge held).
+
+        The seed starts from a0 = 0, an error that the trapezoidal rule never damps; a consistent start
+        gives its scheme the fairest comparison. The velocity term of the start (centripetal) is left
+        out, as omega0 is 0 in the benchmarks."""
+        space = model.space
+        nV, zero = space.nV, np.zeros(space.nV)
+        model.load_step(FemState(state.u, zero, state.lam, 0.0, zero.copy()), 1e-3, 0.0)
+        # at u = u0, v0 = a0 = 0 the inertia term vanishes: the static residual
+        res = model.newton.residual(state.u, 0.0)
+        (u, q1, q2), (du, p1, p2) = space.X.TnT()
+        h = space.scene.pendulum.thickness
+        mass = BilinearForm(space.X)
+        mass += (q1 * du[0] + q2 * du[1] + p1 * u[0] + p2 * u[1]) * ngs.ds("hinge")
+        for region, mat in space.bodies:
+            mass += mat.rho * h * InnerProduct(u, du) * ngs.dx(region)
+        mass.Assemble()
+        acc = (mass.mat.Inverse(space.X.FreeDofs(), inverse="umfpack") * res).Evaluate().FV().NumPy()
+        state.a = -acc[:nV].copy()
+        return state
+
+    def prepare(self, inputs: StepInputs, xs: FemState) -> None:
+        inputs.a0.vec.FV().NumPy()[:] = xs.a
+
+    def end_acceleration(self, xs: FemState, v1: np.ndarray, dt: float) -> np.ndarray:
+        return 2.0 / dt * (v1 - xs.v) - xs.a
+
+    def advance(self, model: FemModel, state: FemState, t: float, t_end: float, torque: float,
+                control: stepping.StepControl) -> stepping.AdvanceResult:
+        return seed_stepping.advance(model, state, t, t_end, torque, self.name, control)
+
+
+def scheme_for(scene: Scene) -> EnergyMomentum | SeedNewmark:
+    """The scheme solver.scheme names."""
+    return EnergyMomentum(scene) if scene.solver.scheme == "energy_momentum" else SeedNewmark(scene)
