@@ -8,9 +8,10 @@ loop (set torque, doStep, get every output) after initialisation. Scenes: the
 stiff (steel) and compliant (rubber) presets. For each scene the fem run is the
 reference the other fidelities are compared with (max |theta - theta_fem|,
 max |gap - gap_fem|); the energy error is max |E_total - E_0 - W_torque| over
-the swing energy E_0 - E_bottom. Times: CPU time of the process (less sensitive
-to other jobs on the machine) and wall time, median of --repeat runs (fem: one
-run when --repeat-fem is 1), with the CPU spread. The comparison with fem stops
+the swing energy m g d (1 - cos 20 deg) (physics.mass_properties). Times: CPU
+time of the process (less sensitive to other jobs on the machine) and wall
+time, median of --repeat runs (fem: one run when --repeat-fem is 1), with the
+CPU spread. The comparison with fem stops
 before the second impact (--compare-until): after it, both models' results
 depend on the phase of a vibration 1-2 ms steps do not resolve.
 """
@@ -26,6 +27,9 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from fem_pendulum_fmu.physics.mass_properties import swing_energy
+from fem_pendulum_fmu.physics.scene import PRESETS
 
 CHILD = r"""
 import json, os, sys, time
@@ -61,30 +65,24 @@ np.save(sys.argv[5], rows)
 print(json.dumps({"wall": wall, "cpu": cpu}))
 """
 
-FIDELITY_NUMBER = {"rigid": 2, "reduced": 3, "fem": 4}
-SWING_DROP = 1.0 - np.cos(np.radians(20.0))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))  # fmu_runner: the interface's enumeration numbers
+
+from fmu_runner import fmi_value  # noqa: E402
 
 
 def run(fmu: Path, preset: str, fidelity: str, t_end: float, tmp: Path) -> tuple[dict, np.ndarray]:
     out = tmp / f"{preset}_{fidelity}.npy"
     env = dict(os.environ, OMP_NUM_THREADS="1")
     proc = subprocess.run(
-        [sys.executable, "-c", CHILD, str(fmu), preset, str(FIDELITY_NUMBER[fidelity]), str(t_end), str(out)],
+        [sys.executable, "-c", CHILD, str(fmu), preset, str(fmi_value("model.fidelity", fidelity)), str(t_end),
+         str(out)],
         capture_output=True,
         text=True,
         env=env,
         check=True,
     )
     return json.loads(proc.stdout.strip().splitlines()[-1]), np.load(out)
-
-
-def swing_energy(rows: np.ndarray) -> float:
-    """E_0 minus the energy at the bottom: potential drop of the release angle, from the run's own
-    first total energy and the gravity law E_pot = -m g d cos(theta)."""
-    e0, th0 = rows[0, 2], rows[0, 0]
-    # E_0 = -mgd cos(th0) (at rest); the drop to the bottom is mgd (1 - cos th0)
-    mgd = -e0 / np.cos(th0)
-    return mgd * (1.0 - np.cos(th0))
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -123,7 +121,7 @@ def main(argv: list[str] | None = None) -> None:
             ref = results["fem"][1]
             window = slice(0, int(round(args.compare_until / 1e-3)) + 1)
             for fidelity, (times, rows) in results.items():
-                swing = swing_energy(rows)
+                swing = swing_energy(PRESETS[preset]())
                 energy = np.max(np.abs(rows[:, 2] - rows[0, 2] - rows[:, 3])) / swing
                 dth = np.degrees(np.max(np.abs(rows[window, 0] - ref[window, 0])))
                 dgap = 1e3 * np.max(np.abs(rows[window, 1] - ref[window, 1]))

@@ -16,17 +16,26 @@ HERE = str(Path(__file__).resolve().parent)
 COLUMNS = ("time", "theta", "omega", "gap", "contact_force", "energy.kinetic", "energy.potential",
            "energy.strain", "energy.contact", "energy.total", "energy.torque_work", "gap_min", "solver.substeps",
            "status")
-FIDELITY_NUMBER = {"auto": 1, "rigid": 2, "reduced": 3, "fem": 4}
-WALL_NUMBER = {"rigid": 1, "deformable": 2, "none": 3}
 STIFF: dict = {}
 COMPLIANT = {"pendulum.E": 1e6, "pendulum.nu": 0.45, "pendulum.rho": 1000.0, "contact.stiffness": 5e9,
              "model.order": 3}
+
+
+def fmi_value(name: str, value):
+    """The FMI start value of a parameter: an enumeration's item name (model.fidelity = "fem") becomes
+    its number as the interface's one declaration (the template) numbers it; other values pass."""
+    # imported here, in the parent: the child process must not import the package before the FMU does
+    from fem_pendulum_fmu.fmi import interface
+
+    items = interface.load().by_name(name).items
+    return items.index(value) + 1 if items and isinstance(value, str) else value
 
 
 def run_schedule(fmu: str, params: dict, schedule: list, repeat: int = 1) -> list[np.ndarray]:
     """Outputs after every doStep (first row: after initialisation), once per repeat, in a new process.
 
     schedule: [(h, torque), ...]. The status column is 0 (OK) or 2 (discard: the run stops there)."""
+    params = {k: fmi_value(k, v) for k, v in params.items()}
     payload = json.dumps({"fmu": str(fmu), "params": params, "schedule": schedule, "repeat": repeat})
     script = (f"import sys; sys.path.insert(0, {HERE!r}); import fmu_runner; fmu_runner._child()")
     run = subprocess.run([sys.executable, "-c", script], input=payload, capture_output=True, text=True)
@@ -40,8 +49,7 @@ def _child() -> None:
     from test_fmu import Instance
 
     job = json.loads(sys.stdin.read())
-    params = {k: (FIDELITY_NUMBER[v] if k == "model.fidelity" else WALL_NUMBER[v] if k == "wall.kind" else v)
-              for k, v in job["params"].items()}
+    params = job["params"]
     runs = []
     for r in range(job["repeat"]):
         inst = Instance(job["fmu"], f"run{r}", **params)

@@ -18,6 +18,7 @@ from fem_pendulum_fmu.physics import models
 from fem_pendulum_fmu.physics.models import StepFailed
 from fem_pendulum_fmu.physics.scene import stiff
 
+from fmu_runner import fmi_value
 from test_fmu import Instance
 from fmpy.fmi1 import FMICallException
 import subprocess
@@ -42,7 +43,6 @@ def isolated(body):
     return test
 
 RIGID_WALL = [f for f in ("rigid", "reduced", "fem") if f in models.AVAILABLE]
-FIDELITY_NUMBER = {"rigid": 2, "reduced": 3, "fem": 4}
 COARSE = {"model.mesh_size": 0.06}
 OUTPUTS = ("theta", "omega", "gap", "contact_force", "energy.total", "energy.torque_work", "gap_min")
 
@@ -103,7 +103,7 @@ def _retrying_master(inst, t_end, h0, torque):
 def test_a_master_restores_and_retries_with_smaller_steps(fmus, tmp_path):
     fmu, _ = fmus
     for fidelity in RIGID_WALL:
-        start = {**COARSE, "model.fidelity": FIDELITY_NUMBER[fidelity], "theta0": 0.05, "omega0": -1.0}
+        start = {**COARSE, "model.fidelity": fmi_value("model.fidelity", fidelity), "theta0": 0.05, "omega0": -1.0}
         inst = Instance(fmu, f"budget-{fidelity}", **start, **{"solver.max_substeps": 25})
         done, discards = _retrying_master(inst, 0.1, 0.1, -0.5)
         assert discards >= 2 and abs(sum(done) - 0.1) < 1e-12
