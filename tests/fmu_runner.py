@@ -3,6 +3,7 @@
 Shared by the robustness tests and benchmarks/robustness.py. One instance per
 run, freed (fmi2FreeInstance, library unloaded) before the next.
 """
+
 from __future__ import annotations
 
 import json
@@ -13,12 +14,24 @@ from pathlib import Path
 import numpy as np
 
 HERE = str(Path(__file__).resolve().parent)
-COLUMNS = ("time", "theta", "omega", "gap", "contact_force", "energy.kinetic", "energy.potential",
-           "energy.strain", "energy.contact", "energy.total", "energy.torque_work", "gap_min", "solver.substeps",
-           "status")
+COLUMNS = (
+    "time",
+    "theta",
+    "omega",
+    "gap",
+    "contact_force",
+    "energy.kinetic",
+    "energy.potential",
+    "energy.strain",
+    "energy.contact",
+    "energy.total",
+    "energy.torque_work",
+    "gap_min",
+    "solver.substeps",
+    "status",
+)
 STIFF: dict = {}
-COMPLIANT = {"pendulum.E": 1e6, "pendulum.nu": 0.45, "pendulum.rho": 1000.0, "contact.stiffness": 5e9,
-             "model.order": 3}
+COMPLIANT = {"pendulum.E": 1e6, "pendulum.nu": 0.45, "pendulum.rho": 1000.0, "contact.stiffness": 5e9, "model.order": 3}
 
 
 def fmi_value(name: str, value):
@@ -37,7 +50,7 @@ def run_schedule(fmu: str, params: dict, schedule: list, repeat: int = 1) -> lis
     schedule: [(h, torque), ...]. The status column is 0 (OK) or 2 (discard: the run stops there)."""
     params = {k: fmi_value(k, v) for k, v in params.items()}
     payload = json.dumps({"fmu": str(fmu), "params": params, "schedule": schedule, "repeat": repeat})
-    script = (f"import sys; sys.path.insert(0, {HERE!r}); import fmu_runner; fmu_runner._child()")
+    script = f"import sys; sys.path.insert(0, {HERE!r}); import fmu_runner; fmu_runner._child()"
     run = subprocess.run([sys.executable, "-c", script], input=payload, capture_output=True, text=True)
     if run.returncode != 0:
         raise RuntimeError(run.stdout[-3000:] + run.stderr[-3000:])

@@ -5,6 +5,7 @@ at build time; the host loads, steps, saves and restores a state, frees the
 instance, unloads the library and exits with 0 (docs/fmu.md says what crashed
 here before).
 """
+
 from __future__ import annotations
 
 import shutil
@@ -39,8 +40,19 @@ def host(fmus, tmp_path_factory) -> list[str]:
     binary = folder / "fmi2_host"
     compiler = shutil.which("cc") or shutil.which("gcc")
     assert compiler, "a C compiler is needed for the FMU's front binary and this host"
-    subprocess.run([compiler, "-O1", "-Wall", f"-I{Path(fmpy.__file__).parent / 'c-code'}",
-                    str(ROOT / "examples" / "c_host" / "fmi2_host.c"), "-ldl", "-o", str(binary)], check=True)
+    subprocess.run(
+        [
+            compiler,
+            "-O1",
+            "-Wall",
+            f"-I{Path(fmpy.__file__).parent / 'c-code'}",
+            str(ROOT / "examples" / "c_host" / "fmi2_host.c"),
+            "-ldl",
+            "-o",
+            str(binary),
+        ],
+        check=True,
+    )
     return [str(binary), extract(str(fmu), unzipdir=str(folder / "fmu")), read_model_description(str(fmu)).guid]
 
 
@@ -103,6 +115,7 @@ def test_host_env_names_this_environment():
     env = host_environment()
     assert Path(env["FEM_PENDULUM_LIBPYTHON"]).is_file() and "libpython" in env["FEM_PENDULUM_LIBPYTHON"]
     assert env["FEM_PENDULUM_PYTHON"] == sys.executable
-    printed = subprocess.run([str(Path(sys.executable).parent / "fem-pendulum"), "host-env"], check=True,
-                             capture_output=True, text=True).stdout
+    printed = subprocess.run(
+        [str(Path(sys.executable).parent / "fem-pendulum"), "host-env"], check=True, capture_output=True, text=True
+    ).stdout
     assert printed.splitlines() == [f'export {k}="{v}"' for k, v in env.items()]

@@ -1,4 +1,5 @@
 """The disk cache of meshes and precomputed data (cache.py)."""
+
 from __future__ import annotations
 
 import os
@@ -46,8 +47,9 @@ def test_cache_off_and_unwritable_folder_still_build(tmp_path, monkeypatch):
 
 def test_processes_sharing_the_cache_never_see_a_partial_entry(tmp_path):
     env = {**os.environ, cache.ENV: str(tmp_path)}
-    procs = [subprocess.Popen([sys.executable, "-c", WRITER], env=env, stdout=subprocess.PIPE, text=True)
-             for _ in range(4)]
+    procs = [
+        subprocess.Popen([sys.executable, "-c", WRITER], env=env, stdout=subprocess.PIPE, text=True) for _ in range(4)
+    ]
     sizes = [int(p.communicate()[0].strip()) for p in procs]
     assert sizes == [1024000] * 4
     assert [f.name for f in tmp_path.iterdir()] == [cache.entry_name("race", {"n": 1}, ".bin")]

@@ -5,25 +5,26 @@ point, a parameter after initialisation, pendulum.nu = 0.5, corrupt state bytes
 (tests/test_fmu.py, tests/test_slave.py), bad values of every range in the Python API
 (tests/test_fem.py::test_bad_parameters_are_named_with_value_and_range).
 """
+
 from __future__ import annotations
 
 import math
 import resource
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from fmpy.fmi1 import FMICallException
+from fmu_runner import fmi_value
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from test_fmu import Instance
 
 from fem_pendulum_fmu.physics import models
 from fem_pendulum_fmu.physics.models import StepFailed
 from fem_pendulum_fmu.physics.scene import stiff
-
-from fmu_runner import fmi_value
-from test_fmu import Instance
-from fmpy.fmi1 import FMICallException
-import subprocess
-import sys
-from pathlib import Path
 
 TESTS = str(Path(__file__).resolve().parent)
 
@@ -32,15 +33,18 @@ def isolated(body):
     """Run the test body in a new Python process (as tests/test_fmu.py does, for this module)."""
 
     def test(fmus, tmp_path):
-        script = (f"import sys; from pathlib import Path; sys.path.insert(0, {TESTS!r}); import test_faults; "
-                  f"test_faults.{body.__name__}.body((Path({str(fmus[0])!r}), Path({str(fmus[1])!r})), "
-                  f"Path({str(tmp_path)!r}))")
+        script = (
+            f"import sys; from pathlib import Path; sys.path.insert(0, {TESTS!r}); import test_faults; "
+            f"test_faults.{body.__name__}.body((Path({str(fmus[0])!r}), Path({str(fmus[1])!r})), "
+            f"Path({str(tmp_path)!r}))"
+        )
         run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
         assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
 
     test.body = body
     test.__name__ = body.__name__
     return test
+
 
 RIGID_WALL = [f for f in ("rigid", "reduced", "fem") if f in models.AVAILABLE]
 COARSE = {"model.mesh_size": 0.06}
@@ -119,9 +123,12 @@ def test_a_master_restores_and_retries_with_smaller_steps(fmus, tmp_path):
 
 # ------------------------------------------------------------------- parameters at initialisation
 BAD_PARAMETERS = [
-    ("pendulum.E", 0.0, "(0, inf)"), ("pendulum.thickness", -0.01, "(0, inf)"),
-    ("model.order", 0, "[2, 5]"), ("model.order", 10, "[2, 5]"),
-    ("wall.kind", 7, "choose one of 1 (rigid)"), ("model.fidelity", 9, "choose one of 1 (auto)"),
+    ("pendulum.E", 0.0, "(0, inf)"),
+    ("pendulum.thickness", -0.01, "(0, inf)"),
+    ("model.order", 0, "[2, 5]"),
+    ("model.order", 10, "[2, 5]"),
+    ("wall.kind", 7, "choose one of 1 (rigid)"),
+    ("model.fidelity", 9, "choose one of 1 (auto)"),
     ("solver.max_substeps", -1, "[0, 1000000000]"),
     ("model.mesh_size", 1e-5, "more than this machine's"),
 ]
@@ -150,9 +157,12 @@ def test_unknown_value_references_and_calls_after_terminate_are_errors(fmus, tmp
     inst = Instance(fmu, **COARSE)
     inst.step(1e-3)
     before = inst.get(*OUTPUTS)
-    for call in (lambda: inst.fmu.getReal([999]), lambda: inst.fmu.setReal([999], [1.0]),
-                 lambda: inst.fmu.setReal([inst.var["theta"].valueReference], [0.3]),
-                 lambda: inst.fmu.getInteger([inst.var["theta"].valueReference])):
+    for call in (
+        lambda: inst.fmu.getReal([999]),
+        lambda: inst.fmu.setReal([999], [1.0]),
+        lambda: inst.fmu.setReal([inst.var["theta"].valueReference], [0.3]),
+        lambda: inst.fmu.getInteger([inst.var["theta"].valueReference]),
+    ):
         with pytest.raises(FMICallException, match=r"status 3 \(error\)"):
             call()
     assert inst.get(*OUTPUTS) == before
@@ -187,16 +197,21 @@ def _energy_check(model, schedule, rel_bound, floor):
 
 @pytest.mark.slow  # hypothesis draws long schedules: 2 to 27 s in four runs
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(schedule=st.lists(st.tuples(STEP, TORQUE), min_size=1, max_size=40),
-       theta0=st.floats(min_value=-0.6, max_value=0.6), omega0=st.floats(min_value=-15.0, max_value=15.0))
+@given(
+    schedule=st.lists(st.tuples(STEP, TORQUE), min_size=1, max_size=40),
+    theta0=st.floats(min_value=-0.6, max_value=0.6),
+    omega0=st.floats(min_value=-15.0, max_value=15.0),
+)
 def test_random_torques_and_steps_never_crash_the_rigid_model(schedule, theta0, omega0):
     model = models.create(stiff(**{"model.fidelity": "rigid", "theta0": theta0, "omega0": omega0}))
     _energy_check(model, schedule, 1e-9, 1e-13)
 
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(schedule=st.lists(st.tuples(STEP, st.floats(min_value=-5.0, max_value=5.0)), min_size=1, max_size=6),
-       theta0=st.floats(min_value=0.0, max_value=0.3))
+@given(
+    schedule=st.lists(st.tuples(STEP, st.floats(min_value=-5.0, max_value=5.0)), min_size=1, max_size=6),
+    theta0=st.floats(min_value=0.0, max_value=0.3),
+)
 def test_random_torques_and_steps_never_crash_the_fe_model(schedule, theta0):
     """Released outside the wall: theta0 < 0 starts the head inside the block, and releasing that
     penalty energy (18 kJ at 7.5 mm) is an explosion, not an operating point (docs/robustness.md)."""

@@ -10,6 +10,7 @@ rigid-body proxy rebounds to 19.39-19.41 degrees on every mesh from 0.03/order
 the seed's own formulation is checked with the seed's effective stiffness,
 E / thickness, where the scheme must neither gain nor lose energy.
 """
+
 from __future__ import annotations
 
 import math
@@ -33,7 +34,9 @@ def run(model, t_end, dt=1e-3, torque=0.0):
     t_start = model.time
     for i in range(1, n + 1):
         o = model.advance(t_start + i * dt, torque)
-        rows.append((o.time, o.theta, o.omega, o.gap, model.last_min_gap, o.total - o.torque_work, o.contact_force, o.strain))
+        rows.append(
+            (o.time, o.theta, o.omega, o.gap, model.last_min_gap, o.total - o.torque_work, o.contact_force, o.strain)
+        )
     return np.array(rows)
 
 
@@ -52,7 +55,9 @@ def stiff_run():
         if 230 <= i <= 250:
             states[i - 1] = model.get_state()
         o = model.advance(i * 1e-3, 0.0)
-        rows.append((o.time, o.theta, o.omega, o.gap, model.last_min_gap, o.total - o.torque_work, o.contact_force, o.strain))
+        rows.append(
+            (o.time, o.theta, o.omega, o.gap, model.last_min_gap, o.total - o.torque_work, o.contact_force, o.strain)
+        )
     return model, e0, np.array(rows), states
 
 
@@ -151,8 +156,10 @@ def test_compliant_angle_and_gap_converge_under_mesh_refinement():
         model = create(compliant(**{"model.mesh_size": size, "model.order": 2}))
         results[size] = run(model, 0.3)
     ref = results[0.015]
-    err = {s: (np.max(np.abs(results[s][:, 1] - ref[:, 1])), np.max(np.abs(results[s][:, 3] - ref[:, 3])))
-           for s in (0.06, 0.03)}
+    err = {
+        s: (np.max(np.abs(results[s][:, 1] - ref[:, 1])), np.max(np.abs(results[s][:, 3] - ref[:, 3])))
+        for s in (0.06, 0.03)
+    }
     assert err[0.03][0] < err[0.06][0], err
     assert err[0.03][1] < err[0.06][1], err
     assert err[0.03][0] < math.radians(0.5), err
@@ -185,13 +192,21 @@ def test_bad_advance_arguments_leave_the_state_unchanged():
     assert after.time == before.time and all(np.array_equal(after.arrays[k], before.arrays[k]) for k in before.arrays)
 
 
-@pytest.mark.parametrize("name, value, allowed", [
-    ("pendulum.nu", 0.5, r"\[0, 0.5\)"), ("pendulum.E", 0.0, r"\(0, inf\)"), ("pendulum.thickness", -0.01, r"\(0, inf\)"),
-    ("model.order", 0, r"\[2, 5\]"), ("model.order", 10, r"\[2, 5\]"), ("contact.stiffness", float("nan"), "finite"),
-    ("model.mesh_size", 0.0, r"\(0, 0.1\]"), ("wall.kind", "glass", "rigid, deformable, none"),
-    # 1e-5 m would need ~15 TiB by the memory estimate: refused before anything is meshed
-    ("model.mesh_size", 1e-5, r"model.order = 2 would need about .* GiB \(estimate\), more than this machine's"),
-])
+@pytest.mark.parametrize(
+    "name, value, allowed",
+    [
+        ("pendulum.nu", 0.5, r"\[0, 0.5\)"),
+        ("pendulum.E", 0.0, r"\(0, inf\)"),
+        ("pendulum.thickness", -0.01, r"\(0, inf\)"),
+        ("model.order", 0, r"\[2, 5\]"),
+        ("model.order", 10, r"\[2, 5\]"),
+        ("contact.stiffness", float("nan"), "finite"),
+        ("model.mesh_size", 0.0, r"\(0, 0.1\]"),
+        ("wall.kind", "glass", "rigid, deformable, none"),
+        # 1e-5 m would need ~15 TiB by the memory estimate: refused before anything is meshed
+        ("model.mesh_size", 1e-5, r"model.order = 2 would need about .* GiB \(estimate\), more than this machine's"),
+    ],
+)
 def test_bad_parameters_are_named_with_value_and_range(name, value, allowed):
     with pytest.raises(ValueError, match=allowed) as info:
         create(stiff(**{name: value}))

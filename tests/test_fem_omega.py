@@ -2,6 +2,7 @@
 
 (It was omega (2 cos theta - 1) before: the displacement's part of the angular
 momentum had the wrong sign, invisible at theta = 0.)"""
+
 from __future__ import annotations
 
 import math

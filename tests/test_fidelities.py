@@ -10,6 +10,7 @@ hundred steps), the FE model to its Newton tolerance and the averaged stress
 holds all three with margin and is 10x below what a trapezoidal rule gains at
 one impact.
 """
+
 from __future__ import annotations
 
 import math
@@ -84,9 +85,14 @@ def test_energy_balances_the_torque_work_through_an_impact(fidelity):
 
 
 @pytest.mark.parametrize("fidelity", FIDELITIES)
-@pytest.mark.parametrize("name, value, allowed", [
-    ("pendulum.nu", 0.5, "[0, 0.5)"), ("pendulum.E", 0.0, "(0, inf)"), ("model.modes", 0, "[1, 200]"),
-])
+@pytest.mark.parametrize(
+    "name, value, allowed",
+    [
+        ("pendulum.nu", 0.5, "[0, 0.5)"),
+        ("pendulum.E", 0.0, "(0, inf)"),
+        ("model.modes", 0, "[1, 200]"),
+    ],
+)
 def test_bad_parameters_are_refused_naming_value_and_range(fidelity, name, value, allowed):
     with pytest.raises(ValueError) as err:
         create(stiff(model__fidelity=fidelity).with_values({name: value}))

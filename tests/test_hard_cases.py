@@ -12,6 +12,7 @@ Fidelities: those of models.AVAILABLE that model the wall of the case
 (the rigid fidelity has no deformable wall and no elements; "reduced" joins
 the rigid-wall cases when it is registered).
 """
+
 from __future__ import annotations
 
 import json
@@ -20,11 +21,10 @@ import os
 
 import numpy as np
 import pytest
+from fmu_runner import COMPLIANT, STIFF, col, run_schedule
 
 from fem_pendulum_fmu.physics import models
 from fem_pendulum_fmu.physics.scene import compliant, stiff
-
-from fmu_runner import COMPLIANT, STIFF, col, run_schedule
 
 RIGID_WALL = [f for f in ("rigid", "reduced", "fem") if f in models.AVAILABLE]
 COARSE = {"model.mesh_size": 0.06}  # robustness, not accuracy: the coarsest mesh (docs/fem.md mesh study)
@@ -43,8 +43,16 @@ ENERGY = {
     "deformable_wall": {"fem": 5e-3},  # contact pairs fixed at the step start: entry and exit approximate
 }
 # internal steps per simulated ms: free flight 0.5 (2 ms steps) plus 29 steps per contact duration
-STEPS_PER_MS = {"high_speed": 40, "large_steps": 2, "violent": 5, "resting": 60, "grazing": 2, "at_rest": 2,
-                "rubber_pulse": 40, "deformable_wall": 40}
+STEPS_PER_MS = {
+    "high_speed": 40,
+    "large_steps": 2,
+    "violent": 5,
+    "resting": 60,
+    "grazing": 2,
+    "at_rest": 2,
+    "rubber_pulse": 40,
+    "deformable_wall": 40,
+}
 
 
 def record(**values) -> None:
@@ -67,8 +75,9 @@ def energy_moved(run):
     return float(np.max(moving) + np.max(np.abs(col(run, "energy.torque_work"))))
 
 
-def check_common(case: str, fidelity: str, runs: list[np.ndarray], allow_discard: bool = False,
-                 scale: float | None = None) -> dict:
+def check_common(
+    case: str, fidelity: str, runs: list[np.ndarray], allow_discard: bool = False, scale: float | None = None
+) -> dict:
     """The checks every hard case shares; returns the measured worst values (for the report).
 
     scale: the energy the error is measured against, by default the energy the run moves."""
@@ -80,12 +89,25 @@ def check_common(case: str, fidelity: str, runs: list[np.ndarray], allow_discard
     t = col(ok, "time")
     rate = float(np.sum(col(ok, "solver.substeps"))) / (t[-1] * 1e3)
     identical = all(np.array_equal(first, other, equal_nan=True) for other in runs[1:])
-    measured = {"energy": rel, "energy_abs": float(np.max(energy_error(ok))), "scale": moved,
-                "penetration": penetration, "steps_per_ms": rate, "max_substeps": float(np.max(col(ok, "solver.substeps"))),
-                "identical": identical, "runs": len(runs), "finite": bool(np.all(np.isfinite(ok))),
-                "discarded": int(np.sum(col(first, "status") == 2))}
-    record(case=case, fidelity=fidelity, **measured, bound_energy=ENERGY[case][fidelity],
-           bound_steps_per_ms=STEPS_PER_MS[case])
+    measured = {
+        "energy": rel,
+        "energy_abs": float(np.max(energy_error(ok))),
+        "scale": moved,
+        "penetration": penetration,
+        "steps_per_ms": rate,
+        "max_substeps": float(np.max(col(ok, "solver.substeps"))),
+        "identical": identical,
+        "runs": len(runs),
+        "finite": bool(np.all(np.isfinite(ok))),
+        "discarded": int(np.sum(col(first, "status") == 2)),
+    }
+    record(
+        case=case,
+        fidelity=fidelity,
+        **measured,
+        bound_energy=ENERGY[case][fidelity],
+        bound_steps_per_ms=STEPS_PER_MS[case],
+    )
     assert identical, "two runs of the same case differ"
     if not allow_discard:
         assert np.all(col(first, "status") == 0), "a doStep was discarded"
@@ -141,9 +163,15 @@ def test_large_communication_steps_across_an_impact(fmus, fidelity):
         check_common("large_steps", fidelity, runs)
         coarse = runs[0]
         rows = [int(round(t / 1e-3)) for t in col(coarse, "time")]
-        record(case="large_steps", fidelity=fidelity, h=h, dtheta=float(np.max(np.abs(col(coarse, "theta") - col(fine, "theta")[rows]))),
-               domega=float(np.max(np.abs(col(coarse, "omega") - col(fine, "omega")[rows]))), bound_dtheta=dtheta,
-               bound_domega=domega)
+        record(
+            case="large_steps",
+            fidelity=fidelity,
+            h=h,
+            dtheta=float(np.max(np.abs(col(coarse, "theta") - col(fine, "theta")[rows]))),
+            domega=float(np.max(np.abs(col(coarse, "omega") - col(fine, "omega")[rows]))),
+            bound_dtheta=dtheta,
+            bound_domega=domega,
+        )
         assert np.max(np.abs(col(coarse, "theta") - col(fine, "theta")[rows])) <= dtheta
         assert np.max(np.abs(col(coarse, "omega") - col(fine, "omega")[rows])) <= domega
         # the impact happened inside a doStep: gap_min saw it, the samples did not
@@ -196,9 +224,15 @@ def test_resting_contact_under_constant_torque(fmus, fidelity):
     w, E, h = scene.geometry.rod_half_width, scene.pendulum.E, scene.pendulum.thickness
     length = scene.geometry.head_centre_depth - scene.geometry.head_radius
     lift_off = 2.0 * 5.0 * length**2 / (2.0 * E * h * (2.0 * w) ** 3 / 12.0)  # twice the static tip deflection
-    record(case="resting", fidelity=fidelity, mean_force_ratio=float(force.mean() / reaction),
-           max_force_ratio=float(force.max() / reaction), growth=float(force[half:].max() / force[:half].max()),
-           max_gap=float(col(run, "gap").max()), bound_gap=lift_off)
+    record(
+        case="resting",
+        fidelity=fidelity,
+        mean_force_ratio=float(force.mean() / reaction),
+        max_force_ratio=float(force.max() / reaction),
+        growth=float(force[half:].max() / force[:half].max()),
+        max_gap=float(col(run, "gap").max()),
+        bound_gap=lift_off,
+    )
     assert abs(force.mean() / reaction - 1.0) < 0.01, force.mean() / reaction
     assert force.max() < 10.0 * reaction and force[half:].max() < 1.5 * force[:half].max()
     assert col(run, "gap").max() <= (1e-12 if fidelity == "rigid" else lift_off)
@@ -231,8 +265,14 @@ def test_at_rest_touching_the_wall_stays_at_rest(fmus, fidelity, name):
     rigid = models.create(stiff(**{"model.fidelity": "rigid", **preset(name)}))
     mgd = rigid.total_mass * 9.81 * rigid.com_depth
     swing = math.sqrt(2.0 * col(run, "energy.contact")[0] / mgd)  # 1/2 mgd theta^2 = initial contact energy
-    record(case="at_rest", fidelity=fidelity, preset=name, energy_gain=float(np.max(e - e[0])),
-           max_theta=float(np.max(np.abs(col(run, "theta")))), bound_theta=1.1 * swing + 1e-5)
+    record(
+        case="at_rest",
+        fidelity=fidelity,
+        preset=name,
+        energy_gain=float(np.max(e - e[0])),
+        max_theta=float(np.max(np.abs(col(run, "theta")))),
+        bound_theta=1.1 * swing + 1e-5,
+    )
     assert np.max(np.abs(col(run, "theta"))) <= 1.1 * swing + 1e-5
 
 
@@ -264,8 +304,15 @@ def test_rubber_short_pulse_keeps_every_element_upright():
         worst_det = min(worst_det, model.min_det_F())
         worst_err = max(worst_err, abs(out.total - e0 - out.torque_work))
         work = max(work, abs(out.torque_work))
-    record(case="rubber_short_pulse", fidelity="fem", min_det_F=worst_det, energy=worst_err / work, energy_abs=worst_err,
-           scale=work, bound_energy=ENERGY["rubber_pulse"]["fem"])
+    record(
+        case="rubber_short_pulse",
+        fidelity="fem",
+        min_det_F=worst_det,
+        energy=worst_err / work,
+        energy_abs=worst_err,
+        scale=work,
+        bound_energy=ENERGY["rubber_pulse"]["fem"],
+    )
     assert worst_det > 0.2, worst_det
     assert worst_err <= ENERGY["rubber_pulse"]["fem"] * work, (worst_err, work)
 
@@ -275,8 +322,16 @@ def test_rubber_short_pulse_keeps_every_element_upright():
 def test_deformable_wall_with_the_compliant_pendulum(fmus):
     """The meshed steel block and the rubber pendulum (order 2 for speed): 0.24 m/s at the head
     (omega0 = -1 rad/s) from 1.2 mm before the wall, through the first 7 ms of a long, soft contact."""
-    params = {**COMPLIANT, **COARSE, **STALL_GUARD, "model.order": 2, "model.fidelity": "fem",
-              "wall.kind": "deformable", "theta0": 0.005, "omega0": -1.0}
+    params = {
+        **COMPLIANT,
+        **COARSE,
+        **STALL_GUARD,
+        "model.order": 2,
+        "model.fidelity": "fem",
+        "wall.kind": "deformable",
+        "theta0": 0.005,
+        "omega0": -1.0,
+    }
     runs = run_schedule(fmus[0], params, [(1e-3, 0.0)] * 12, repeat=2)
     check_common("deformable_wall", "fem", runs)
     assert col(runs[0], "contact_force").max() > 0.5

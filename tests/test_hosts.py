@@ -4,6 +4,7 @@ an environment that lacks the FMU's packages, and a run that starts from a saved
 Every process here must exit normally with 0: pythonfmu's binary alone made
 hosts crash at exit and broke a second run in the same process (docs/fmu.md).
 """
+
 from __future__ import annotations
 
 import importlib.metadata
@@ -30,8 +31,11 @@ def test_fmpy_command_line_exits_cleanly_every_time(fmus, tmp_path, fidelity):
     codes, ends = [], []
     for k in range(20):
         out = tmp_path / f"run{k}.csv"
-        run = subprocess.run([FMPY, "simulate", str(fmu), "--stop-time", "0.02", "--output-file", str(out), *start],
-                             capture_output=True, text=True)
+        run = subprocess.run(
+            [FMPY, "simulate", str(fmu), "--stop-time", "0.02", "--output-file", str(out), *start],
+            capture_output=True,
+            text=True,
+        )
         codes.append(run.returncode)
         assert run.returncode == 0, run.stderr[-3000:]
         ends.append(np.genfromtxt(out, delimiter=",", names=True)["theta"][-1])
@@ -78,8 +82,14 @@ def test_every_fidelity_in_turn_then_both_fmus_in_one_process(fmus):
 def fmpy_only_environment(folder: Path) -> Path:
     """A virtual environment holding fmpy and what it requires (linked from this one), nothing else."""
     venv.create(folder, with_pip=False)
-    site = Path(subprocess.run([str(folder / "bin" / "python"), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
-                               check=True, capture_output=True, text=True).stdout.strip())
+    site = Path(
+        subprocess.run(
+            [str(folder / "bin" / "python"), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+            check=True,
+            capture_output=True,
+            text=True,
+        ).stdout.strip()
+    )
     seen, todo = set(), ["fmpy"]
     while todo:
         dist = importlib.metadata.distribution(todo.pop().replace("-", "_"))
@@ -99,8 +109,12 @@ def fmpy_only_environment(folder: Path) -> Path:
 def test_missing_packages_are_named_with_the_install_command(fmus, tmp_path):
     fmu, _ = fmus
     python = fmpy_only_environment(tmp_path / "venv")
-    run = subprocess.run([str(python), "-m", "fmpy", "simulate", str(fmu), "--stop-time", "0.01"],
-                         capture_output=True, text=True, env={k: v for k, v in os.environ.items() if k != "PYTHONPATH"})
+    run = subprocess.run(
+        [str(python), "-m", "fmpy", "simulate", str(fmu), "--stop-time", "0.01"],
+        capture_output=True,
+        text=True,
+        env={k: v for k, v in os.environ.items() if k != "PYTHONPATH"},
+    )
     assert run.returncode != 0
     error = [line for line in run.stdout.splitlines() if line.startswith("[ERROR]")]
     assert error, run.stdout + run.stderr[-2000:]
@@ -164,8 +178,12 @@ print(json.dumps(rows))
 def test_a_fresh_instance_started_from_a_saved_state_continues_bit_identically(fmus, tmp_path, fidelity):
     fmu, _ = fmus
     blob = tmp_path / "state.bin"
-    runs = [subprocess.run([sys.executable, "-c", script, str(fmu), str(blob), str(fidelity)],
-                           capture_output=True, text=True) for script in (ORIGINAL, RESTORE)]
+    runs = [
+        subprocess.run(
+            [sys.executable, "-c", script, str(fmu), str(blob), str(fidelity)], capture_output=True, text=True
+        )
+        for script in (ORIGINAL, RESTORE)
+    ]
     for run in runs:
         assert run.returncode == 0, run.stderr[-3000:]
     original, restored = (json.loads(run.stdout.strip().splitlines()[-1]) for run in runs)
@@ -215,5 +233,12 @@ def test_fmu_states_a_host_gets_wrong_are_refused_not_dereferenced(fmus):
     run = subprocess.run([sys.executable, "-c", MISUSE, str(fmus[0])], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr[-3000:]
     codes = json.loads(run.stdout.strip().splitlines()[-1])
-    assert codes == {"set_bogus": 3, "free_state_itself": 0, "set_freed": 3, "free_null": 0,
-                     "restore_kept": 0, "free_kept": 0, "freed_pointer_is_null": True}
+    assert codes == {
+        "set_bogus": 3,
+        "free_state_itself": 0,
+        "set_freed": 3,
+        "free_null": 0,
+        "restore_kept": 0,
+        "free_kept": 0,
+        "freed_pointer_is_null": True,
+    }

@@ -4,6 +4,7 @@ Bounds come from runs of the same code (docs/reduced.md has the tables and comma
 steel through the first impact and rebound agrees with fem to 0.004 degree and
 21 micrometres; rubber through its first impact to 0.56 degree and 3.7 mm (rigid: 3.9 degrees).
 """
+
 from __future__ import annotations
 
 import logging
@@ -97,17 +98,23 @@ def test_rubber_torque_pulse_keeps_the_energy_balance():
     assert np.max(np.abs(out[:, 3])) < ENERGY_BOUND
 
 
-@pytest.mark.parametrize("scene, picked", [
-    (stiff(), "reduced"),  # 0.27 ms contact = 0.26 first bending periods: vibration matters, 6 modes span it
-    (stiff(theta0=0.0), "reduced"),  # at rest against the wall: a torque can still drive it in (controller loop)
-    (stiff(pendulum__E=2.1e13), "rigid"),  # the seed's effective stiffness: contact lasts 2.6 periods
-    (stiff(model__modes=2), "fem"),  # 2 modes do not reach the band an impact excites
-    (stiff(wall__kind="none"), "rigid"),
-    (compliant(), "fem"),  # rubber: the impact excites ~1 kHz, far beyond a few modes
-    (compliant(wall__kind="none"), "fem"),  # soft: a pivot torque bends the rod beyond a linear basis
-    (compliant(pendulum__E=2e8, wall__kind="none"), "reduced"),  # stiff enough for a linear basis, f1 only 78x the swing
-    (stiff(wall__kind="deformable"), "fem"),
-])
+@pytest.mark.parametrize(
+    "scene, picked",
+    [
+        (stiff(), "reduced"),  # 0.27 ms contact = 0.26 first bending periods: vibration matters, 6 modes span it
+        (stiff(theta0=0.0), "reduced"),  # at rest against the wall: a torque can still drive it in (controller loop)
+        (stiff(pendulum__E=2.1e13), "rigid"),  # the seed's effective stiffness: contact lasts 2.6 periods
+        (stiff(model__modes=2), "fem"),  # 2 modes do not reach the band an impact excites
+        (stiff(wall__kind="none"), "rigid"),
+        (compliant(), "fem"),  # rubber: the impact excites ~1 kHz, far beyond a few modes
+        (compliant(wall__kind="none"), "fem"),  # soft: a pivot torque bends the rod beyond a linear basis
+        (
+            compliant(pendulum__E=2e8, wall__kind="none"),
+            "reduced",
+        ),  # stiff enough for a linear basis, f1 only 78x the swing
+        (stiff(wall__kind="deformable"), "fem"),
+    ],
+)
 def test_auto_picks_the_cheapest_adequate_model_and_says_why(scene, picked, caplog):
     with caplog.at_level(logging.INFO, logger="fem_pendulum_fmu"):
         model = create(scene.with_values({"model.fidelity": "auto"}))

@@ -16,6 +16,7 @@ points 0.18 m): a pendulum driven over the top meets the block's left face.
 The top face and a corner are exercised with the block's top lowered to
 y = -0.2 m, and directly on arcs placed against every face and corner.
 """
+
 from __future__ import annotations
 
 import math
@@ -26,8 +27,8 @@ import pytest
 from fem_pendulum_fmu.physics import rigid_contact as rc
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
 from fem_pendulum_fmu.physics.models import create
-from fem_pendulum_fmu.physics.protocol import ModelState, StepFailed
 from fem_pendulum_fmu.physics.models.rigid import RigidModel
+from fem_pendulum_fmu.physics.protocol import ModelState, StepFailed
 from fem_pendulum_fmu.physics.scene import WallBlock, stiff
 from fem_pendulum_fmu.physics.swing import peaks_after_first_contact
 
@@ -48,8 +49,18 @@ def run(model, t_end, torque=0.0, dt=DT):
     for i in range(1, int(round((t_end - t0) / dt)) + 1):
         tq = torque(t0 + (i - 1) * dt) if callable(torque) else torque
         o = model.advance(t0 + i * dt, tq)
-        rows.append((o.time, o.theta, o.omega, o.gap, model.last_min_gap, o.total - o.torque_work - e0,
-                     o.contact_force, o.substeps))
+        rows.append(
+            (
+                o.time,
+                o.theta,
+                o.omega,
+                o.gap,
+                model.last_min_gap,
+                o.total - o.torque_work - e0,
+                o.contact_force,
+                o.substeps,
+            )
+        )
     return np.array(rows)
 
 
@@ -87,8 +98,18 @@ def stiff_run():
         if 200 <= i <= 260:
             states[i - 1] = model.get_state()
         o = model.advance(i * DT, 0.0)
-        rows.append((o.time, o.theta, o.omega, o.gap, model.last_min_gap, o.total - o.torque_work - e0,
-                     o.contact_force, o.substeps))
+        rows.append(
+            (
+                o.time,
+                o.theta,
+                o.omega,
+                o.gap,
+                model.last_min_gap,
+                o.total - o.torque_work - e0,
+                o.contact_force,
+                o.substeps,
+            )
+        )
     return model, np.array(rows), states
 
 
@@ -143,7 +164,7 @@ def test_small_amplitude_period_without_wall():
     period = float(np.mean(np.diff(up)))
     t0 = 2 * math.pi * math.sqrt(model.inertia / (model.total_mass * G * model.com_depth))
     assert period == pytest.approx(t0, rel=5e-3)
-    assert period == pytest.approx(t0 * (1 + theta0 ** 2 / 16), rel=1e-4)  # with the amplitude correction
+    assert period == pytest.approx(t0 * (1 + theta0**2 / 16), rel=1e-4)  # with the amplitude correction
     assert np.max(np.abs(out[:, 5])) < 1e-12 * model.total_mass * G * model.com_depth
     # the geometric gap is still reported (the head swings through where the wall would be), no force
     assert out[:, 3].min() < 0 and np.all(out[:, 6] == 0.0)
@@ -208,8 +229,18 @@ def test_driven_over_the_top(block, face):
         o = model.advance(i * DT, square_wave((i - 1) * DT))
         assert all(math.isfinite(v) for v in o.as_dict().values())
         kinetic_max = max(kinetic_max, o.kinetic)
-        rows.append((o.time, o.theta, o.omega, o.gap, model.last_min_gap, o.total - o.torque_work - e0,
-                     o.contact_force, o.substeps))
+        rows.append(
+            (
+                o.time,
+                o.theta,
+                o.omega,
+                o.gap,
+                model.last_min_gap,
+                o.total - o.torque_work - e0,
+                o.contact_force,
+                o.substeps,
+            )
+        )
         if o.gap < 0:
             q = model.get_state().scalars["theta"]
             faces.update(rc.FACES[p.face] for p in rc.inside_pieces(model.arc(q), model.block))
@@ -246,7 +277,14 @@ def test_bad_arguments_raise_and_keep_state():
     model = rigid()
     model.advance(0.01, 0.0)
     before = model.get_state()
-    for t_end, torque in [(0.01, 0.0), (0.005, 0.0), (math.nan, 0.0), (math.inf, 0.0), (0.02, math.nan), (0.02, math.inf)]:
+    for t_end, torque in [
+        (0.01, 0.0),
+        (0.005, 0.0),
+        (math.nan, 0.0),
+        (math.inf, 0.0),
+        (0.02, math.nan),
+        (0.02, math.inf),
+    ]:
         with pytest.raises(ValueError):
             model.advance(t_end, torque)
         after = model.get_state()
@@ -312,9 +350,16 @@ def arcs_near_every_face_and_corner():
     rng = np.random.default_rng(7)
     R = 0.06
     b = BLOCK
-    targets = [(b.x_max, -0.24, 0.0), (b.x_min, -0.2, math.pi), (-0.07, b.y_max, 0.5 * math.pi),
-               (-0.07, b.y_min, -0.5 * math.pi)] + [(x, y, math.atan2(y - (b.y_min + b.y_max) / 2, x + 0.0725))
-                                                      for x in (b.x_min, b.x_max) for y in (b.y_min, b.y_max)]
+    targets = [
+        (b.x_max, -0.24, 0.0),
+        (b.x_min, -0.2, math.pi),
+        (-0.07, b.y_max, 0.5 * math.pi),
+        (-0.07, b.y_min, -0.5 * math.pi),
+    ] + [
+        (x, y, math.atan2(y - (b.y_min + b.y_max) / 2, x + 0.0725))
+        for x in (b.x_min, b.x_max)
+        for y in (b.y_min, b.y_max)
+    ]
     arcs = []
     for x, y, out in targets:
         for depth in (-2e-4, 1e-6, 6.3e-5, 2e-3):
@@ -339,7 +384,7 @@ def test_arc_contact_matches_dense_sampling(arc):
 def test_top_face_and_corner_pieces_are_split_by_nearest_face():
     # a circle centred above-right of the top-right corner, pressed 1 mm into it
     b = BLOCK
-    arc = rc.Arc(b.x_max + 0.04, b.y_max + math.sqrt(0.059 ** 2 - 0.04 ** 2), 0.06, 0.0, 2 * math.pi - 1e-3)
+    arc = rc.Arc(b.x_max + 0.04, b.y_max + math.sqrt(0.059**2 - 0.04**2), 0.06, 0.0, 2 * math.pi - 1e-3)
     faces = {rc.FACES[p.face] for p in rc.inside_pieces(arc, b)}
     assert faces == {"top", "right"}
     depth, px, py, face = rc.deepest_point(arc, b, rc.inside_pieces(arc, b))
@@ -355,7 +400,9 @@ def test_energy_derivatives_match_finite_differences():
         assert p.d_energy == pytest.approx((pp.energy - pm.energy) / (2 * h), rel=1e-5)
         assert p.d2_energy == pytest.approx((pp.d_energy - pm.d_energy) / (2 * h), rel=1e-4)
         gap, slope = model.geometric_gap(q)
-        assert slope == pytest.approx((model.geometric_gap(q + h)[0] - model.geometric_gap(q - h)[0]) / (2 * h), rel=1e-5)
+        assert slope == pytest.approx(
+            (model.geometric_gap(q + h)[0] - model.geometric_gap(q - h)[0]) / (2 * h), rel=1e-5
+        )
     # on the right face at the head centre's height the force (+x) acts with lever D about the pivot,
     # and its moment is -dE/dtheta
     p = model.contact_energy(-1e-4)

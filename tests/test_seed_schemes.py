@@ -5,6 +5,7 @@ integration with ours on the same mesh, material and contact law; these tests
 check that they are what they claim to be (trapezoidal Newmark, the seed's step
 rule) and that our default scheme is untouched by them.
 """
+
 from __future__ import annotations
 
 import math

@@ -11,6 +11,7 @@ FEM_PENDULUM_CACHE=off to disable it.
 Three ways in: load_or_build (bytes, e.g. an .npz), load_or_build_json, and
 cached_file (a file a callback writes, e.g. a netgen .vol mesh).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -18,8 +19,9 @@ import json
 import logging
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from .. import __version__
 

@@ -11,6 +11,7 @@ Phi'(d0, d1) = (Phi(d1) - Phi(d0)) / (d1 - d0) times the discrete gradient of d
 see the same face). Its work over the step is exactly Phi(d1) - Phi(d0), so
 contact neither creates nor destroys energy, whatever the step size.
 """
+
 from __future__ import annotations
 
 import numpy as np

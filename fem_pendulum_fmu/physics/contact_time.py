@@ -3,6 +3,7 @@
 Shared by every fidelity (stepping.py asks a model for them through
 `contact_scales`); plain functions over numbers and numpy arrays.
 """
+
 from __future__ import annotations
 
 import math
@@ -51,8 +52,9 @@ def effective_mass(inertia: float, arm: float, depth: float) -> float:
     return inertia / max(abs(arm), ARM_FLOOR * depth) ** 2
 
 
-def contact_time_scale(gaps: np.ndarray, weights: np.ndarray, m_eff: float, rate: float,
-                       k_line: float) -> tuple[float, float]:
+def contact_time_scale(
+    gaps: np.ndarray, weights: np.ndarray, m_eff: float, rate: float, k_line: float
+) -> tuple[float, float]:
     """(duration, largest depth) of the contact now in view, from the penalty law on sampled points.
 
     The boundary is pushed rigidly along the normal by delta beyond its closest

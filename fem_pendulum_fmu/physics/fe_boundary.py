@@ -5,6 +5,7 @@
 * the hinge torque's follower load: a line load on the hinge edge with the
   zero-mean weight x / w, scaled so that its moment about the pivot is one.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -5,11 +5,12 @@ Boundary names: "hinge" (top edge of the rod, centred on the pivot),
 (the block's contact face x = x_max) and "wall_fixed" (the block's other
 edges, clamped). Material names: "pendulum" and "wall".
 """
+
 from __future__ import annotations
 
 from pathlib import Path
 
-from netgen.occ import X, Y, Circle, Compound, MoveTo, OCCGeometry
+from netgen.occ import Circle, Compound, MoveTo, OCCGeometry, X, Y
 
 from .scene import PendulumGeometry, WallBlock
 
@@ -45,9 +46,13 @@ def wall_shape(block: WallBlock):
     return wall
 
 
-def make_geometry(geo: PendulumGeometry, block: WallBlock | None = None,
-                  head_edge_size: float | None = None, wall_face_size: float | None = None,
-                  refine_like_seed: bool = False) -> OCCGeometry:
+def make_geometry(
+    geo: PendulumGeometry,
+    block: WallBlock | None = None,
+    head_edge_size: float | None = None,
+    wall_face_size: float | None = None,
+    refine_like_seed: bool = False,
+) -> OCCGeometry:
     """OCC geometry of the pendulum, and of the wall block when `block` is given."""
     body = pendulum_shape(geo, refine_like_seed)
     if head_edge_size is not None:
@@ -62,9 +67,15 @@ def make_geometry(geo: PendulumGeometry, block: WallBlock | None = None,
     return OCCGeometry(shape, dim=2)
 
 
-def make_mesh(geo: PendulumGeometry, mesh_size: float, order: int, block: WallBlock | None = None,
-              head_edge_size: float | None = None, wall_face_size: float | None = None,
-              refine_like_seed: bool = False):
+def make_mesh(
+    geo: PendulumGeometry,
+    mesh_size: float,
+    order: int,
+    block: WallBlock | None = None,
+    head_edge_size: float | None = None,
+    wall_face_size: float | None = None,
+    refine_like_seed: bool = False,
+):
     """A curved NGSolve mesh of the scene (order-`order` geometry).
 
     The straight-sided mesh is always read back from a netgen .vol file, the
@@ -80,8 +91,14 @@ def make_mesh(geo: PendulumGeometry, mesh_size: float, order: int, block: WallBl
     from .cache import cached_file
 
     occ = make_geometry(geo, block, head_edge_size, wall_face_size, refine_like_seed)
-    key = {"geometry": asdict(geo), "block": asdict(block) if block else None, "mesh_size": mesh_size,
-           "head_edge_size": head_edge_size, "wall_face_size": wall_face_size, "seed": refine_like_seed}
+    key = {
+        "geometry": asdict(geo),
+        "block": asdict(block) if block else None,
+        "mesh_size": mesh_size,
+        "head_edge_size": head_edge_size,
+        "wall_face_size": wall_face_size,
+        "seed": refine_like_seed,
+    }
 
     def write(path):
         occ.GenerateMesh(maxh=mesh_size).Save(str(path))

@@ -5,6 +5,7 @@ fine and highly curved), so the fidelities describe the same body; the rigid
 model takes its inertia from here, and everything that needs "the swing
 energy" (tests, benchmarks, the fidelity rule) takes it from `swing_energy`.
 """
+
 from __future__ import annotations
 
 import math
@@ -31,8 +32,11 @@ def geometry_moments(geo: PendulumGeometry) -> tuple[float, float, float]:
 
         mesh = make_mesh(geo, MASS_MESH_SIZE, MASS_MESH_ORDER)
         order = 2 * MASS_MESH_ORDER + 2
-        return [float(Integrate(CF(1.0), mesh, order=order)), float(Integrate(y, mesh, order=order)),
-                float(Integrate(x * x + y * y, mesh, order=order))]
+        return [
+            float(Integrate(CF(1.0), mesh, order=order)),
+            float(Integrate(y, mesh, order=order)),
+            float(Integrate(x * x + y * y, mesh, order=order)),
+        ]
 
     key = {"geometry": asdict(geo), "mesh_size": MASS_MESH_SIZE, "order": MASS_MESH_ORDER}
     return tuple(load_or_build_json("moments", key, integrate))

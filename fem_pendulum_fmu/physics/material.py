@@ -5,14 +5,17 @@ energy and zero stress in the reference state, plane-stress Lame parameters
 (lam*, mu) so that it linearises to plane-stress Hooke's law. Energies here
 are per unit reference area; callers multiply by the thickness.
 """
+
 from __future__ import annotations
 
 import numpy as np
 from ngsolve import Det, Grad, Id, Inv, Trace, log, sqrt
 
 # Gauss-Legendre points on [0, 1] for the averaged stress of the discrete gradient
-_GAUSS = {n: tuple(zip((np.polynomial.legendre.leggauss(n)[0] + 1) / 2, np.polynomial.legendre.leggauss(n)[1] / 2))
-          for n in (1, 2, 3)}
+_GAUSS = {
+    n: tuple(zip((np.polynomial.legendre.leggauss(n)[0] + 1) / 2, np.polynomial.legendre.leggauss(n)[1] / 2))
+    for n in (1, 2, 3)
+}
 
 
 def right_cauchy_green(F):

@@ -15,6 +15,7 @@ data (`ModalBasis`) and cached on disk like the mesh: mass moments, the
 gyroscopic coupling between modes, the gravity and torque participations and
 the modes sampled on the head boundary where contact is evaluated.
 """
+
 from __future__ import annotations
 
 import io
@@ -63,7 +64,7 @@ class ModalBasis:
         return buf.getvalue()
 
     @staticmethod
-    def from_bytes(data: bytes) -> "ModalBasis":
+    def from_bytes(data: bytes) -> ModalBasis:
         with np.load(io.BytesIO(data), allow_pickle=False) as npz:
             values = {f.name: np.array(npz[f.name]) for f in fields(ModalBasis)}
         for name in ("inertia0", "mass"):
@@ -73,10 +74,17 @@ class ModalBasis:
 
 def modal_key(scene: Scene) -> dict:
     """What the modes depend on (the cache key)."""
-    return {"geometry": asdict(scene.geometry), "pendulum": asdict(scene.pendulum),
-            "mesh_size": scene.model.mesh_size, "order": scene.model.order, "modes": scene.model.modes,
-            "head_rule": HEAD_RULE_ORDER, "patches": CONTACT_PATCHES, "patch_width": PATCH_WIDTH,
-            "version": BASIS_VERSION}
+    return {
+        "geometry": asdict(scene.geometry),
+        "pendulum": asdict(scene.pendulum),
+        "mesh_size": scene.model.mesh_size,
+        "order": scene.model.order,
+        "modes": scene.model.modes,
+        "head_rule": HEAD_RULE_ORDER,
+        "patches": CONTACT_PATCHES,
+        "patch_width": PATCH_WIDTH,
+        "version": BASIS_VERSION,
+    }
 
 
 def modal_basis(scene: Scene) -> ModalBasis:
@@ -258,8 +266,18 @@ def compute_modes(scene: Scene) -> ModalBasis:
     if np.max(np.abs(tisserand)) > 1e-6 * np.sqrt(inertia0):
         raise RuntimeError(f"elastic modes are not mass-orthogonal to the rotation: {tisserand}")
     return ModalBasis(
-        omega2=omega2, eigen_omega2=eigen_omega2, inertia0=inertia0, mass=float(Integrate(rho * h, mesh)),
+        omega2=omega2,
+        eigen_omega2=eigen_omega2,
+        inertia0=inertia0,
+        mass=float(Integrate(rho * h, mesh)),
         first_moment=np.array([float(Integrate(rho * h * x, mesh)), float(Integrate(rho * h * y, mesh))]),
-        a=l_pos @ phi, gyro=(cross @ phi).T @ phi, moment_modes=np.array([l_x @ phi, l_y @ phi]),
-        tisserand=tisserand, torque_modes=l_torque @ phi, head_X=head_X, head_phi=head_phi,
-        head_weights=head.weights, phi=phi)
+        a=l_pos @ phi,
+        gyro=(cross @ phi).T @ phi,
+        moment_modes=np.array([l_x @ phi, l_y @ phi]),
+        tisserand=tisserand,
+        torque_modes=l_torque @ phi,
+        head_X=head_X,
+        head_phi=head_phi,
+        head_weights=head.weights,
+        phi=phi,
+    )

@@ -3,6 +3,7 @@
 The FMI slave and the masters only ever see `PendulumModel`, `Outputs` and
 `ModelState`; which physics runs behind them is chosen by `models.create`.
 """
+
 from __future__ import annotations
 
 import io
@@ -52,21 +53,30 @@ class ModelState:
     scalars: dict[str, float] = field(default_factory=dict)
     arrays: dict[str, np.ndarray] = field(default_factory=dict)
 
-    def copy(self) -> "ModelState":
-        return ModelState(self.fidelity, self.time, dict(self.scalars),
-                          {k: np.array(v, copy=True) for k, v in self.arrays.items()})
+    def copy(self) -> ModelState:
+        return ModelState(
+            self.fidelity, self.time, dict(self.scalars), {k: np.array(v, copy=True) for k, v in self.arrays.items()}
+        )
 
     def to_bytes(self) -> bytes:
         """Serialise to a self-describing .npz byte string (no pickle)."""
-        header = {"format": "fem_pendulum_fmu.state", "version": 1, "fidelity": self.fidelity,
-                  "time": self.time, "scalars": self.scalars}
+        header = {
+            "format": "fem_pendulum_fmu.state",
+            "version": 1,
+            "fidelity": self.fidelity,
+            "time": self.time,
+            "scalars": self.scalars,
+        }
         buf = io.BytesIO()
-        np.savez(buf, __header__=np.frombuffer(json.dumps(header).encode(), dtype=np.uint8),
-                 **{f"a_{k}": v for k, v in self.arrays.items()})
+        np.savez(
+            buf,
+            __header__=np.frombuffer(json.dumps(header).encode(), dtype=np.uint8),
+            **{f"a_{k}": v for k, v in self.arrays.items()},
+        )
         return buf.getvalue()
 
     @staticmethod
-    def from_bytes(data: bytes) -> "ModelState":
+    def from_bytes(data: bytes) -> ModelState:
         """Inverse of to_bytes; raises ValueError on anything that is not such a state."""
         try:
             with np.load(io.BytesIO(bytes(data)), allow_pickle=False) as npz:
@@ -76,8 +86,9 @@ class ModelState:
             raise ValueError(f"not a serialised model state ({type(exc).__name__}: {exc})") from None
         if header.get("format") != "fem_pendulum_fmu.state" or header.get("version") != 1:
             raise ValueError(f"not a serialised model state of a known version: header {header!r}")
-        return ModelState(str(header["fidelity"]), float(header["time"]),
-                          {k: float(v) for k, v in header["scalars"].items()}, arrays)
+        return ModelState(
+            str(header["fidelity"]), float(header["time"]), {k: float(v) for k, v in header["scalars"].items()}, arrays
+        )
 
 
 @runtime_checkable

@@ -17,6 +17,7 @@ Derivatives are with respect to a rigid rotation of the arc about the origin
 (the pivot), which is all the rigid model needs. Scalars use the math module:
 these run in the inner loop of a scalar Newton solve.
 """
+
 from __future__ import annotations
 
 import math
@@ -69,8 +70,7 @@ class Penalty(NamedTuple):
 @lru_cache(maxsize=64)
 def face_depths(block: WallBlock) -> tuple[tuple[float, float, float], ...]:
     """Each face depth as (c, gx, gy): d_face(p) = c + gx px + gy py."""
-    return ((block.x_max, -1.0, 0.0), (-block.x_min, 1.0, 0.0),
-            (block.y_max, 0.0, -1.0), (-block.y_min, 0.0, 1.0))
+    return ((block.x_max, -1.0, 0.0), (-block.x_min, 1.0, 0.0), (block.y_max, 0.0, -1.0), (-block.y_min, 0.0, 1.0))
 
 
 @lru_cache(maxsize=64)
@@ -81,8 +81,12 @@ def split_lines(block: WallBlock) -> tuple[tuple[float, float, float], ...]:
     s = math.sqrt(0.5)
     xc, yc = 0.5 * (block.x_min + block.x_max), 0.5 * (block.y_min + block.y_max)
     raw = [
-        (1.0, 0.0, block.x_max), (1.0, 0.0, block.x_min), (0.0, 1.0, block.y_max), (0.0, 1.0, block.y_min),
-        (1.0, 0.0, xc), (0.0, 1.0, yc),
+        (1.0, 0.0, block.x_max),
+        (1.0, 0.0, block.x_min),
+        (0.0, 1.0, block.y_max),
+        (0.0, 1.0, block.y_min),
+        (1.0, 0.0, xc),
+        (0.0, 1.0, yc),
         (-s, s, s * (block.y_max - block.x_max)),  # right = top
         (s, s, s * (block.x_max + block.y_min)),  # right = bottom
         (s, s, s * (block.x_min + block.y_max)),  # left = top
@@ -100,7 +104,9 @@ def circle_may_touch(cx: float, cy: float, radius: float, block: WallBlock) -> b
     r2 = radius * radius
     if near2 > r2:
         return False
-    far2 = max(abs(block.x_min - cx), abs(block.x_max - cx)) ** 2 + max(abs(block.y_min - cy), abs(block.y_max - cy)) ** 2
+    far2 = (
+        max(abs(block.x_min - cx), abs(block.x_max - cx)) ** 2 + max(abs(block.y_min - cy), abs(block.y_max - cy)) ** 2
+    )
     return far2 >= r2
 
 

@@ -5,12 +5,14 @@ Plain frozen dataclasses, one per group, so that a parameter's FMI name
 `validate` rejects every out-of-range value with a ValueError that names the
 parameter, its value and what is allowed.
 """
+
 from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 WALL_KINDS = ("rigid", "deformable", "none")
 FIDELITIES = ("auto", "rigid", "reduced", "fem")
@@ -94,7 +96,7 @@ class Scene:
     geometry: PendulumGeometry = field(default_factory=PendulumGeometry)
     block: WallBlock = field(default_factory=WallBlock)
 
-    def with_values(self, values: Mapping[str, Any]) -> "Scene":
+    def with_values(self, values: Mapping[str, Any]) -> Scene:
         """A copy with values given by dotted names, e.g. {"pendulum.E": 1e6}."""
         return replace_path(self, values)
 
@@ -110,8 +112,9 @@ def compliant(**values: Any) -> Scene:
     Order-3 elements: the coarsest discretisation whose angle and gap stay
     within 0.5 degree and 1 mm of a fine reference through an impact
     (benchmarks/mesh_study.py --preset compliant, docs/fem.md)."""
-    base = Scene(pendulum=Material(E=1e6, nu=0.45, rho=1000.0), contact=Contact(stiffness=5e9),
-                 model=ModelSettings(order=3))
+    base = Scene(
+        pendulum=Material(E=1e6, nu=0.45, rho=1000.0), contact=Contact(stiffness=5e9), model=ModelSettings(order=3)
+    )
     return base.with_values(_dotted(values))
 
 
@@ -167,8 +170,12 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
     "solver.max_step": (1e-7, 0.1, True, True),
     "solver.tolerance": (1e-8, 0.1, True, True),
 }
-_INT_RANGES = {"model.order": (2, 5), "model.threads": (1, 64), "model.modes": (1, 200),  # order 1: see docs/fem.md
-               "solver.max_substeps": (0, 10**9)}
+_INT_RANGES = {
+    "model.order": (2, 5),
+    "model.threads": (1, 64),
+    "model.modes": (1, 200),  # order 1: see docs/fem.md
+    "solver.max_substeps": (0, 10**9),
+}
 _CHOICES = {"wall.kind": WALL_KINDS, "model.fidelity": FIDELITIES, "solver.scheme": SCHEMES}
 
 
@@ -199,8 +206,10 @@ def validate(scene: Scene) -> Scene:
     if not isinstance(scene.model.compute_stress, bool):
         raise ValueError(f"parameter model.compute_stress = {scene.model.compute_stress!r}: allowed is true or false")
     if scene.solver.scheme != "energy_momentum" and scene.model.fidelity != "fem":
-        raise ValueError(f"parameter solver.scheme = {scene.solver.scheme!r} is an option of the fem fidelity only: "
-                         f"set model.fidelity = fem (it is {scene.model.fidelity!r}) or solver.scheme = energy_momentum")
+        raise ValueError(
+            f"parameter solver.scheme = {scene.solver.scheme!r} is an option of the fem fidelity only: "
+            f"set model.fidelity = fem (it is {scene.model.fidelity!r}) or solver.scheme = energy_momentum"
+        )
     if scene.model.fidelity != "rigid":  # the rigid fidelity meshes nothing with these settings
         need, have = mesh_memory_estimate(scene), physical_memory()
         if need > have:
@@ -208,15 +217,18 @@ def validate(scene: Scene) -> Scene:
                 f"parameters model.mesh_size = {scene.model.mesh_size!r} with model.order = {scene.model.order} "
                 f"would need about {need / 2**30:.3g} GiB (estimate), more than this machine's "
                 f"{have / 2**30:.3g} GiB: allowed are mesh sizes down to about "
-                f"{smallest_mesh_size(scene, have):.2g} m at this order")
+                f"{smallest_mesh_size(scene, have):.2g} m at this order"
+            )
     return scene
 
 
 def refuse_deformable_wall(scene: Scene, fidelity: str) -> None:
     """Raise the ValueError of a fidelity that has no meshed wall (rigid, reduced) for wall.kind = deformable."""
     if scene.wall.kind == "deformable":
-        raise ValueError(f"parameter wall.kind = 'deformable' is not available with model.fidelity = {fidelity!r}: "
-                         "choose rigid or none, or model.fidelity = 'fem'")
+        raise ValueError(
+            f"parameter wall.kind = 'deformable' is not available with model.fidelity = {fidelity!r}: "
+            "choose rigid or none, or model.fidelity = 'fem'"
+        )
 
 
 # Memory of the FE model, measured (python benchmarks/robustness.py memory, docs/robustness.md): peak
@@ -252,7 +264,7 @@ def mesh_memory_estimate(scene: Scene, mesh_size: float | None = None) -> float:
 
 def smallest_mesh_size(scene: Scene, memory: float) -> float:
     """The mesh size whose estimate just fits `memory` bytes."""
-    per_unknown_h2 = (mesh_memory_estimate(scene, 1.0) - _MEMORY_BASE)
+    per_unknown_h2 = mesh_memory_estimate(scene, 1.0) - _MEMORY_BASE
     return math.sqrt(per_unknown_h2 / max(memory - _MEMORY_BASE, 1.0))
 
 

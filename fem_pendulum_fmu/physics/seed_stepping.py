@@ -10,6 +10,7 @@ Nothing locates contact onset and nothing relates the step to the contact's
 duration: that is what the comparison is about. A step whose nonlinear solve
 fails is retried at half the size, down to `min_step` (StepFailed below it).
 """
+
 from __future__ import annotations
 
 import math
@@ -46,15 +47,18 @@ def advance(model, x, t: float, t_end: float, torque: float, scheme: str, contro
             rejected += 1
             halvings += 1
             if dt / 2.0 < control.min_step:
-                raise StepFailed(f"the nonlinear solve failed down to the smallest step {control.min_step:g} s "
-                                 f"at t = {t:.9g} s")
+                raise StepFailed(
+                    f"the nonlinear solve failed down to the smallest step {control.min_step:g} s at t = {t:.9g} s"
+                )
             continue
         halvings = max(halvings - 1, 0)
         x = x_new
         t = t_end if dt >= remaining else t + dt
         substeps += 1
         if control.max_substeps and substeps >= control.max_substeps and t < t_end:
-            raise StepFailed(f"the advance to t = {t_end:.9g} s needs more than solver.max_substeps = "
-                             f"{control.max_substeps} internal steps (stopped at t = {t:.9g} s)")
+            raise StepFailed(
+                f"the advance to t = {t_end:.9g} s needs more than solver.max_substeps = "
+                f"{control.max_substeps} internal steps (stopped at t = {t:.9g} s)"
+            )
     min_gap = min(min_gap, model.gap_and_rate(x)[0])
     return AdvanceResult(x, substeps, rejected, min_gap)

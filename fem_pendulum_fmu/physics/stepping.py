@@ -24,6 +24,7 @@ The rule, in words (it is what `solver.max_step` and `solver.tolerance` mean):
 Models supply the single energy-consistent step and the contact scales; this
 module only decides the step sizes.
 """
+
 from __future__ import annotations
 
 import math
@@ -56,10 +57,11 @@ class StepControl:
     max_substeps: int = 0  # accepted steps allowed per advance; 0 = no limit
 
     @classmethod
-    def for_scene(cls, scene) -> "StepControl":
+    def for_scene(cls, scene) -> StepControl:
         """The step control a scene's solver.* parameters describe (every fidelity uses this)."""
-        return cls(max_step=scene.solver.max_step, tolerance=scene.solver.tolerance,
-                   max_substeps=scene.solver.max_substeps)
+        return cls(
+            max_step=scene.solver.max_step, tolerance=scene.solver.tolerance, max_substeps=scene.solver.max_substeps
+        )
 
     @property
     def steps_per_contact(self) -> int:
@@ -74,8 +76,7 @@ class AdvanceResult(Generic[X]):
     min_gap: float  # smallest gap seen at the internal steps of this advance (contacts between communication points)
 
 
-def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float,
-            control: StepControl) -> AdvanceResult[X]:
+def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, control: StepControl) -> AdvanceResult[X]:
     """Integrate from t to t_end; raises StepFailed if a step cannot be completed."""
     n_contact = control.steps_per_contact
     substeps = rejected = 0
@@ -102,15 +103,19 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float,
         if x_new is None:
             dt_cap = dt / 2.0
             if dt_cap < control.min_step:
-                raise StepFailed(f"the nonlinear solve failed down to the smallest step {control.min_step:g} s at t = {t:.9g} s")
+                raise StepFailed(
+                    f"the nonlinear solve failed down to the smallest step {control.min_step:g} s at t = {t:.9g} s"
+                )
             continue
         x = x_new
         t = t_end if dt >= remaining else t + dt
         substeps += 1
         if control.max_substeps and substeps >= control.max_substeps and t < t_end:
-            raise StepFailed(f"the advance to t = {t_end:.9g} s needs more than solver.max_substeps = "
-                             f"{control.max_substeps} internal steps (stopped at t = {t:.9g} s); "
-                             "retry with a shorter communication step")
+            raise StepFailed(
+                f"the advance to t = {t_end:.9g} s needs more than solver.max_substeps = "
+                f"{control.max_substeps} internal steps (stopped at t = {t:.9g} s); "
+                "retry with a shorter communication step"
+            )
         dt_cap = min(control.max_step, 2.0 * dt_cap)
     min_gap = min(min_gap, model.gap_and_rate(x)[0])
     return AdvanceResult(x, substeps, rejected, min_gap)

@@ -5,6 +5,7 @@ communication step); tests, benchmarks and masters share them, so that "a
 rebound" means one thing everywhere. The energy a swing is measured against
 is mass_properties.swing_energy.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -35,5 +36,6 @@ def peaks_after_first_contact(theta: np.ndarray, min_gap: np.ndarray) -> np.ndar
     sample if there is none): the heights of the rebounds."""
     theta = np.asarray(theta)
     first = int(np.argmax(np.asarray(min_gap) < 0))
-    return np.array([i for i in range(first + 1, len(theta) - 1)
-                     if theta[i] >= theta[i - 1] and theta[i] > theta[i + 1]], dtype=int)
+    return np.array(
+        [i for i in range(first + 1, len(theta) - 1) if theta[i] >= theta[i - 1] and theta[i] > theta[i + 1]], dtype=int
+    )

@@ -1,8 +1,9 @@
 """Fidelities behind one protocol; `create` picks the class for a scene."""
+
 from __future__ import annotations
 
-from ..scene import Scene, validate
 from ..protocol import ModelState, Outputs, PendulumModel, StepFailed
+from ..scene import Scene, validate
 
 AVAILABLE = ("rigid", "reduced", "fem")
 
@@ -19,7 +20,9 @@ def create(scene: Scene) -> PendulumModel:
     validate(scene)
     fidelity = resolve_fidelity(scene)
     if fidelity not in AVAILABLE:
-        raise ValueError(f"parameter model.fidelity = {fidelity!r} is not available: choose one of auto, {', '.join(AVAILABLE)}")
+        raise ValueError(
+            f"parameter model.fidelity = {fidelity!r} is not available: choose one of auto, {', '.join(AVAILABLE)}"
+        )
     if fidelity == "rigid":
         from .rigid import RigidModel  # refuses a deformable wall itself
 
@@ -29,6 +32,7 @@ def create(scene: Scene) -> PendulumModel:
 
         return ReducedModel(scene)
     from .fem import FemModel
+
     return FemModel(scene)
 
 

@@ -14,6 +14,7 @@
 
 Step sizes come from stepping.py (or seed_stepping.py for the seed's schemes).
 """
+
 from __future__ import annotations
 
 import math
@@ -141,8 +142,13 @@ class FemModel:
             return math.inf, 0.0
         closest = self.head.closest_point(xs)
         m_eff = effective_mass(self.inertia0, closest.arm, self.scene.geometry.head_centre_depth)
-        return contact_time_scale(closest.gaps, self.head.weights, m_eff, closest.rate,
-                                  self.scene.contact.stiffness * self.scene.pendulum.thickness)
+        return contact_time_scale(
+            closest.gaps,
+            self.head.weights,
+            m_eff,
+            closest.rate,
+            self.scene.contact.stiffness * self.scene.pendulum.thickness,
+        )
 
     # ---------------------------------------------------------------- protocol
     def advance(self, t_end: float, torque: float) -> Outputs:
@@ -169,8 +175,11 @@ class FemModel:
 
     def get_state(self) -> ModelState:
         s = self._state
-        scalars = {"torque_work": s.torque_work, "substeps": float(self._outputs.substeps),
-                   "last_min_gap": self.last_min_gap}
+        scalars = {
+            "torque_work": s.torque_work,
+            "substeps": float(self._outputs.substeps),
+            "last_min_gap": self.last_min_gap,
+        }
         arrays = {"u": s.u.copy(), "v": s.v.copy(), "lam": s.lam.copy()}
         if s.a is not None:
             arrays["a"] = s.a.copy()
@@ -183,18 +192,26 @@ class FemModel:
     def set_state(self, state: ModelState) -> None:
         nV = self.space.nV
         if state.fidelity != "fem" or state.arrays.get("u", np.empty(0)).shape != (nV,):
-            raise ValueError(f"state of fidelity {state.fidelity!r} does not fit this fem model "
-                             f"({nV} displacement dofs)")
+            raise ValueError(
+                f"state of fidelity {state.fidelity!r} does not fit this fem model ({nV} displacement dofs)"
+            )
         arr, sc = state.arrays, state.scalars
         newmark = self.scheme.carries_acceleration
         if newmark != ("a" in arr):
             raise ValueError("state of another time integration scheme (solver.scheme) than this fem model's")
-        self._state = FemState(arr["u"].copy(), arr["v"].copy(), arr["lam"].copy(), sc["torque_work"],
-                               arr["a"].copy() if newmark else None)
+        self._state = FemState(
+            arr["u"].copy(), arr["v"].copy(), arr["lam"].copy(), sc["torque_work"], arr["a"].copy() if newmark else None
+        )
         self.newton.held = None
         if "jac_w" in arr:
-            self.newton.held = JacobianPoint(arr["jac_u0"].copy(), arr["jac_v0"].copy(), arr["jac_w"].copy(),
-                                             sc["jac_dt"], sc["jac_torque"], arr["jac_active"].astype(int))
+            self.newton.held = JacobianPoint(
+                arr["jac_u0"].copy(),
+                arr["jac_v0"].copy(),
+                arr["jac_w"].copy(),
+                sc["jac_dt"],
+                sc["jac_torque"],
+                arr["jac_active"].astype(int),
+            )
         self.newton.ready = False
         self.time = state.time
         self._outputs = self.measures.of(self._state, self.time, int(sc.get("substeps", 0)))

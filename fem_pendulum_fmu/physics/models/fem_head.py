@@ -6,6 +6,7 @@ which head elements can reach the block within a step (contact is assembled on
 those only), and, for the meshed wall, the contact energy against its deformed
 face.
 """
+
 from __future__ import annotations
 
 import ngsolve as ngs

@@ -6,6 +6,7 @@ when they do not. Where it was assembled (`JacobianPoint`) is part of the
 model's state, so that a restored model re-creates the very same matrix and
 continues bit-identically.
 """
+
 from __future__ import annotations
 
 import math
@@ -57,12 +58,12 @@ class HeldJacobianNewton:
 
     def multipliers(self) -> np.ndarray:
         """The hinge multipliers of the last solve."""
-        return self.w.vec.FV().NumPy()[self._nV:].copy()
+        return self.w.vec.FV().NumPy()[self._nV :].copy()
 
     def residual(self, u: np.ndarray, lam: float | np.ndarray) -> ngs.BaseVector:
         """The step form's residual at (u, lam) with the inputs as loaded (a vector of the solver's)."""
         wv = self.w.vec.FV().NumPy()
-        wv[:self._nV], wv[self._nV:] = u, lam
+        wv[: self._nV], wv[self._nV :] = u, lam
         self.form.Apply(self.w.vec, self._res)
         return self._res
 
@@ -109,8 +110,9 @@ class HeldJacobianNewton:
             self._inverse.Update()  # same graph: numeric re-factorisation only
 
     def _refresh(self, xs: FemState, dt: float, torque: float) -> None:
-        self.held = JacobianPoint(xs.u.copy(), xs.v.copy(), self.w.vec.FV().NumPy().copy(), dt, torque,
-                                  self._active_now())
+        self.held = JacobianPoint(
+            xs.u.copy(), xs.v.copy(), self.w.vec.FV().NumPy().copy(), dt, torque, self._active_now()
+        )
         self._factorise()
         self.ready = True
 

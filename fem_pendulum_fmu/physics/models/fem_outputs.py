@@ -4,6 +4,7 @@ force, stress; and the two per-step measures the step needs (torque work, smalle
 The linear functionals and matrices are assembled once; a state's u and v are
 loaded into the space's evaluation fields.
 """
+
 from __future__ import annotations
 
 import math
@@ -79,8 +80,9 @@ class FemOutputs:
         # exact for the integrand's degree 2 order (Cof F, x and u); the default rule (order 5) lost
         # up to 15 % of the work when the rubber hinge edge deformed strongly (docs/robustness.md)
         order = 2 * space.scene.model.order + 2
-        return torque * float(Integrate(self._unit_torque_work_cf, space.mesh, BND, order=order,
-                                        definedon=space.mesh.Boundaries("hinge")))
+        return torque * float(
+            Integrate(self._unit_torque_work_cf, space.mesh, BND, order=order, definedon=space.mesh.Boundaries("hinge"))
+        )
 
     def min_det_F(self, u: np.ndarray) -> float:
         """Smallest det F of the displacement u at the integration points of every element."""
@@ -127,8 +129,10 @@ class FemOutputs:
         theta, omega = (0.0, 0.0) if light else self._rotation(u, v)
         # the forms' own rule (2 order): the scheme conserves the strain energy integrated so; a finer
         # rule differed by up to 3 % of the work in the crushed rubber hinge (docs/robustness.md)
-        strain = sum(float(Integrate(cf, mesh, order=2 * space.scene.model.order, definedon=mesh.Materials(region)))
-                     for region, cf in self._strain_cf)
+        strain = sum(
+            float(Integrate(cf, mesh, order=2 * space.scene.model.order, definedon=mesh.Materials(region)))
+            for region, cf in self._strain_cf
+        )
         c_energy, c_force = self._contact(u, light)
         gap = self._head.closest_point(s).gap if not light else 0.0
         vm = 0.0
@@ -136,6 +140,19 @@ class FemOutputs:
             space.gf_u.vec.FV().NumPy()[:] = u
             vm = float(np.max(self._von_mises_cf(mesh.MapToAllElements(IntegrationRule(ngs.TRIG, 4), VOL))))
         total = kinetic + potential + strain + c_energy
-        return Outputs(time=t, theta=theta, omega=omega, gap=gap, contact_force=c_force, kinetic=kinetic,
-                       potential=potential, strain=strain, contact=c_energy, total=total,
-                       torque_work=s.torque_work, von_mises_max=vm, substeps=substeps, min_gap=gap)
+        return Outputs(
+            time=t,
+            theta=theta,
+            omega=omega,
+            gap=gap,
+            contact_force=c_force,
+            kinetic=kinetic,
+            potential=potential,
+            strain=strain,
+            contact=c_energy,
+            total=total,
+            torque_work=s.torque_work,
+            von_mises_max=vm,
+            substeps=substeps,
+            min_gap=gap,
+        )

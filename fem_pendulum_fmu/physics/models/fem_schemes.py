@@ -17,6 +17,7 @@ A step form is the residual of one step in the unknowns (u1, hinge
 multipliers); its linearisation is the Newton Jacobian (fem_newton.py). It
 reads the step's start state, size and torque from `StepInputs`.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -95,8 +96,9 @@ class StepForm:
 Terms = tuple[CoefficientFunction, CoefficientFunction]  # (inertia, first Piola-Kirchhoff stress) of a body
 
 
-def _bodies_form(space: FemSpace, du: CoefficientFunction,
-                 inertia_and_stress: Callable[[Material], Terms]) -> BilinearForm:
+def _bodies_form(
+    space: FemSpace, du: CoefficientFunction, inertia_and_stress: Callable[[Material], Terms]
+) -> BilinearForm:
     """Each body's inertia, elastic stress and gravity; inertia_and_stress(material) -> (inertia, P)."""
     sc = space.scene
     h = sc.pendulum.thickness
@@ -104,14 +106,17 @@ def _bodies_form(space: FemSpace, du: CoefficientFunction,
     form = BilinearForm(space.X)
     for region, mat in space.bodies:
         inertia, elastic = inertia_and_stress(mat)
-        form += (mat.rho * h * InnerProduct(inertia, du)
-                 + h * InnerProduct(elastic, Grad(du))
-                 - mat.rho * h * InnerProduct(gvec, du)).Compile() * ngs.dx(region)
+        form += (
+            mat.rho * h * InnerProduct(inertia, du)
+            + h * InnerProduct(elastic, Grad(du))
+            - mat.rho * h * InnerProduct(gvec, du)
+        ).Compile() * ngs.dx(region)
     return form
 
 
-def _add_hinge_and_torque(form: BilinearForm, trial: tuple, test: tuple, inputs: StepInputs,
-                          F_hinge: CoefficientFunction) -> None:
+def _add_hinge_and_torque(
+    form: BilinearForm, trial: tuple, test: tuple, inputs: StepInputs, F_hinge: CoefficientFunction
+) -> None:
     """Hinge: mean displacement of the hinge edge is zero (Lagrange multipliers q1, q2). Follower
     torque: line load p(X) * Cof(F) N on the hinge edge, F the scheme's deformation gradient there."""
     (u, q1, q2), (du, p1, p2) = trial, test
@@ -120,15 +125,17 @@ def _add_hinge_and_torque(form: BilinearForm, trial: tuple, test: tuple, inputs:
     form += -InnerProduct(inputs.torque_load * inputs.torque_weight * (Cof(F_hinge) * N), du) * ngs.ds("hinge")
 
 
-def _add_rigid_wall(form: BilinearForm, space: FemSpace, du: CoefficientFunction,
-                    force: CoefficientFunction) -> ngs.BitArray:
+def _add_rigid_wall(
+    form: BilinearForm, space: FemSpace, du: CoefficientFunction, force: CoefficientFunction
+) -> ngs.BitArray:
     """The penalty force on the head's outer boundary, assembled only on head elements that can
     reach the block within the step (the returned BitArray, empty until the step marks them)."""
     mesh, order = space.mesh, space.scene.model.order
     active = ngs.BitArray(mesh.GetNE(BND))
     active.Clear()
     form += (-space.scene.pendulum.thickness * InnerProduct(force, du)).Compile() * ngs.ds(
-        "head", bonus_intorder=space.contact_order - 2 * order, definedonelements=active)
+        "head", bonus_intorder=space.contact_order - 2 * order, definedonelements=active
+    )
     return active
 
 
@@ -221,8 +228,9 @@ class EnergyMomentum:
     def end_acceleration(self, xs: FemState, v1: np.ndarray, dt: float) -> None:
         return None
 
-    def advance(self, model: FemModel, state: FemState, t: float, t_end: float, torque: float,
-                control: stepping.StepControl) -> stepping.AdvanceResult:
+    def advance(
+        self, model: FemModel, state: FemState, t: float, t_end: float, torque: float, control: stepping.StepControl
+    ) -> stepping.AdvanceResult:
         return stepping.advance(model, state, t, t_end, torque, control)
 
 
@@ -265,8 +273,9 @@ class SeedNewmark:
     def end_acceleration(self, xs: FemState, v1: np.ndarray, dt: float) -> np.ndarray:
         return 2.0 / dt * (v1 - xs.v) - xs.a
 
-    def advance(self, model: FemModel, state: FemState, t: float, t_end: float, torque: float,
-                control: stepping.StepControl) -> stepping.AdvanceResult:
+    def advance(
+        self, model: FemModel, state: FemState, t: float, t_end: float, torque: float, control: stepping.StepControl
+    ) -> stepping.AdvanceResult:
         return seed_stepping.advance(model, state, t, t_end, torque, self.name, control)
 
 

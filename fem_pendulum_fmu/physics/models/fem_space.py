@@ -4,6 +4,7 @@ Everything else of the FE model (the step forms of fem_schemes.py, the head
 sampling of fem_head.py, the outputs of fem_outputs.py) is built on one
 `FemSpace`.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
@@ -60,13 +61,29 @@ def fem_space(scene: Scene, refine_like_seed: bool = False) -> FemSpace:
     """Mesh the scene (the wall block too when wall.kind is deformable) and set up the spaces."""
     order = scene.model.order
     deformable = scene.wall.kind == "deformable"
-    mesh = make_mesh(scene.geometry, scene.model.mesh_size, order, block=scene.block if deformable else None,
-                     wall_face_size=DEFORMABLE_WALL_FACE_SIZE, refine_like_seed=refine_like_seed)
+    mesh = make_mesh(
+        scene.geometry,
+        scene.model.mesh_size,
+        order,
+        block=scene.block if deformable else None,
+        wall_face_size=DEFORMABLE_WALL_FACE_SIZE,
+        refine_like_seed=refine_like_seed,
+    )
     V = VectorH1(mesh, order=order, dirichlet="wall_fixed" if deformable else "")
     Q = NumberSpace(mesh, definedon=mesh.Boundaries("hinge"))
     bodies = [("pendulum", scene.pendulum)]
     if deformable:
         bodies.append(("wall", replace(scene.pendulum, E=scene.wall.E, nu=scene.wall.nu, rho=scene.wall.rho)))
-    return FemSpace(scene=scene, mesh=mesh, V=V, X=V * Q * Q, bodies=bodies, deformable_wall=deformable,
-                    contact_on=scene.wall.kind == "rigid" and scene.contact.stiffness > 0,
-                    contact_order=2 * order + 40, pos=CF((x, y)), gf_u=GridFunction(V), gf_v=GridFunction(V))
+    return FemSpace(
+        scene=scene,
+        mesh=mesh,
+        V=V,
+        X=V * Q * Q,
+        bodies=bodies,
+        deformable_wall=deformable,
+        contact_on=scene.wall.kind == "rigid" and scene.contact.stiffness > 0,
+        contact_order=2 * order + 40,
+        pos=CF((x, y)),
+        gf_u=GridFunction(V),
+        gf_v=GridFunction(V),
+    )

@@ -24,6 +24,7 @@ Gonzalez's correction in the mass metric. Over every step H changes by exactly
 the torque's work tau (d theta + beta . dq), so impacts neither gain nor lose
 energy. Step sizes come from stepping.py, as for the other fidelities.
 """
+
 from __future__ import annotations
 
 import math
@@ -31,16 +32,18 @@ import math
 import numpy as np
 
 from .. import rigid_contact
+from ..contact_time import ClosestPoint, contact_time_scale, effective_mass
 from ..modes import ModalBasis, modal_basis
+from ..protocol import ModelState, Outputs, restored_min_gap
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
-from ..protocol import ModelState, Outputs, restored_min_gap
-from ..contact_time import ClosestPoint, contact_time_scale, effective_mass
 
 NEWTON_MAX_IT = 40
 TANGENT_AFTER = 4  # Newton iterations on the linear modal stiffness before the strain's tangent is assembled
 ENERGY_TOL = 1e-10  # accepted energy imbalance of one step, relative to the energies it moves
-SCALE_BAND = 0.02  # m: contact scales consider head points at most this far behind the closest (penetrations are < 2 mm)
+SCALE_BAND = (
+    0.02  # m: contact scales consider head points at most this far behind the closest (penetrations are < 2 mm)
+)
 FAR_GAP = 0.01  # m: beyond this the stepper sees the head's bounding circle instead of every point
 STALL_TOL = 1e-9  # if Newton stalls at round-off, an imbalance up to this is still accepted
 
@@ -138,8 +141,9 @@ class NeoHookeanStrain:
         F, J = self._kinematics(q)
         inv, log_j = self._inverse_and_log(F, J)
         n = len(J)
-        A = (np.einsum("pli,pjk->pijkl", inv, inv).reshape(n, 4, 4) * (self._mu - self._lam * log_j)[:, None, None]
-             + self._lam * np.einsum("pji,plk->pijkl", inv, inv).reshape(n, 4, 4))
+        A = np.einsum("pli,pjk->pijkl", inv, inv).reshape(n, 4, 4) * (self._mu - self._lam * log_j)[
+            :, None, None
+        ] + self._lam * np.einsum("pji,plk->pijkl", inv, inv).reshape(n, 4, 4)
         A += self._mu * np.eye(4)
         G = self._G.reshape(n, 4, -1)
         AG = A @ G
@@ -178,8 +182,7 @@ class ReducedModel(SteppedModel):
         self._closest_memo = None
         self._identity = np.eye(self.n)
         self._stress = None
-        self._strain = (LinearStrain(b.omega2) if uses_linear_strain(scene)
-                        else NeoHookeanStrain(scene, b.phi, b.omega2))
+        self._strain = LinearStrain(b.omega2) if uses_linear_strain(scene) else NeoHookeanStrain(scene, b.phi, b.omega2)
         z0 = np.zeros(self.n)
         z0[0] = float(scene.theta0)
         p0 = self.mass_matrix(z0) @ np.concatenate([[float(scene.omega0)], np.zeros(self.m)])
@@ -406,9 +409,12 @@ class ReducedModel(SteppedModel):
     # ---------------------------------------------------------------- protocol
     def get_state(self) -> ModelState:
         z, p, work = self._x
-        return ModelState(self.fidelity, self.time,
-                          {"torque_work": work, "substeps": float(self._outputs.substeps), "last_min_gap": self.last_min_gap},
-                          {"z": z.copy(), "p": p.copy()})
+        return ModelState(
+            self.fidelity,
+            self.time,
+            {"torque_work": work, "substeps": float(self._outputs.substeps), "last_min_gap": self.last_min_gap},
+            {"z": z.copy(), "p": p.copy()},
+        )
 
     def set_state(self, state: ModelState) -> None:
         if state.fidelity != self.fidelity:
@@ -417,7 +423,12 @@ class ReducedModel(SteppedModel):
         if z is None or p is None or z.shape != (self.n,) or p.shape != (self.n,) or "torque_work" not in state.scalars:
             raise ValueError(f"state does not fit this reduced model ({self.m} modes: z and p of length {self.n})")
         x = (z.astype(float).copy(), p.astype(float).copy(), float(state.scalars["torque_work"]))
-        if not (np.all(np.isfinite(x[0])) and np.all(np.isfinite(x[1])) and math.isfinite(x[2]) and math.isfinite(state.time)):
+        if not (
+            np.all(np.isfinite(x[0]))
+            and np.all(np.isfinite(x[1]))
+            and math.isfinite(x[2])
+            and math.isfinite(state.time)
+        ):
             raise ValueError("reduced model state has non-finite values")
         self._x = x
         self.time = float(state.time)
@@ -440,10 +451,22 @@ class ReducedModel(SteppedModel):
             world, _ = self.head_points(z)
             gap = float(np.min(box_signed_distance(world[:, 0], world[:, 1], self.block)[0]))
         vm = self.von_mises_max(z) if self.scene.model.compute_stress else 0.0
-        return Outputs(time=t, theta=math.remainder(float(z[0]), 2.0 * math.pi), omega=float(p[0] / M[0, 0]),
-                       gap=gap, contact_force=float(np.hypot(*force)), kinetic=kinetic, potential=potential,
-                       strain=strain, contact=c_energy, total=kinetic + potential + strain + c_energy,
-                       torque_work=work, von_mises_max=vm, substeps=substeps, min_gap=gap)
+        return Outputs(
+            time=t,
+            theta=math.remainder(float(z[0]), 2.0 * math.pi),
+            omega=float(p[0] / M[0, 0]),
+            gap=gap,
+            contact_force=float(np.hypot(*force)),
+            kinetic=kinetic,
+            potential=potential,
+            strain=strain,
+            contact=c_energy,
+            total=kinetic + potential + strain + c_energy,
+            torque_work=work,
+            von_mises_max=vm,
+            substeps=substeps,
+            min_gap=gap,
+        )
 
     def von_mises_max(self, z: np.ndarray) -> float:
         """Largest von Mises stress of the modal displacement field (frame-invariant), on the FE mesh."""

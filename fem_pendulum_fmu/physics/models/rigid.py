@@ -15,6 +15,7 @@ so that kinetic + V changes by exactly T (q1 - q0) per step: impacts neither
 gain nor lose energy whatever the step, and the rebound angle is the release
 angle. Step sizes (contact onset, ~30 steps per contact) come from stepping.py.
 """
+
 from __future__ import annotations
 
 import math
@@ -22,9 +23,9 @@ import math
 from .. import rigid_contact
 from ..contact_time import effective_mass
 from ..mass_properties import gravity_moment, mass_properties
+from ..protocol import ModelState, Outputs, restored_min_gap
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
-from ..protocol import ModelState, Outputs, restored_min_gap
 
 NEWTON_MAX_IT = 80
 ENERGY_ROUNDOFF = 1e-15  # relative energy imbalance per step accepted as converged
@@ -62,7 +63,9 @@ class RigidModel(SteppedModel):
         self._hk = mat.thickness * scene.contact.stiffness
         self._depth, self._radius = geo.head_centre_depth, geo.head_radius
         if not 0.0 < geo.rod_half_width < geo.head_radius:
-            raise ValueError(f"geometry: rod_half_width {geo.rod_half_width!r} must lie in (0, head_radius {geo.head_radius!r})")
+            raise ValueError(
+                f"geometry: rod_half_width {geo.rod_half_width!r} must lie in (0, head_radius {geo.head_radius!r})"
+            )
         half_gap = math.asin(geo.rod_half_width / geo.head_radius)  # rod joint, seen from the head centre
         self._arc_offset = 0.5 * math.pi + half_gap
         self._arc_length = 2.0 * math.pi - 2.0 * half_gap
@@ -87,8 +90,9 @@ class RigidModel(SteppedModel):
     def arc(self, theta: float) -> rigid_contact.Arc:
         """The head's outer boundary (without the rod joint) at angle theta."""
         D = self._depth
-        return rigid_contact.Arc(D * math.sin(theta), -D * math.cos(theta), self._radius,
-                                 theta + self._arc_offset, self._arc_length)
+        return rigid_contact.Arc(
+            D * math.sin(theta), -D * math.cos(theta), self._radius, theta + self._arc_offset, self._arc_length
+        )
 
     def _contact(self, q: float) -> tuple:
         """(pieces, Penalty) at angle q, memoised: Newton and the stepper revisit the same angles."""
@@ -233,7 +237,7 @@ class RigidModel(SteppedModel):
         m_eff = effective_mass(self.inertia, slope, self._depth)
         energy = self._contact(q)[1].energy
         law = energy / (-gap) ** 2.5 if gap < 0.0 and energy > 0.0 else self._flat_law
-        speed2 = max(rate * rate, APPROACH_SPEED_FLOOR ** 2)
+        speed2 = max(rate * rate, APPROACH_SPEED_FLOOR**2)
         available = energy + 0.5 * m_eff * speed2
         delta = (available / law) ** 0.4
         k_sec = 2.0 * law * math.sqrt(delta)
@@ -242,9 +246,17 @@ class RigidModel(SteppedModel):
     # ------------------------------------------------------------- protocol
     def get_state(self) -> ModelState:
         q, w, work = self._x
-        return ModelState(self.fidelity, self.time, {"theta": q, "omega": w, "torque_work": work,
-                                                     "substeps": float(self._outputs.substeps),
-                                                     "last_min_gap": self.last_min_gap})
+        return ModelState(
+            self.fidelity,
+            self.time,
+            {
+                "theta": q,
+                "omega": w,
+                "torque_work": work,
+                "substeps": float(self._outputs.substeps),
+                "last_min_gap": self.last_min_gap,
+            },
+        )
 
     def set_state(self, state: ModelState) -> None:
         if state.fidelity != self.fidelity:
@@ -269,7 +281,19 @@ class RigidModel(SteppedModel):
         kinetic = 0.5 * self.inertia * w * w
         potential = -self._mgd * math.cos(q)
         total = kinetic + potential + pen.energy
-        return Outputs(time=t, theta=math.remainder(q, 2.0 * math.pi), omega=w, gap=gap,
-                       contact_force=math.hypot(pen.fx, pen.fy), kinetic=kinetic, potential=potential,
-                       strain=0.0, contact=pen.energy, total=total, torque_work=work,
-                       von_mises_max=0.0, substeps=substeps, min_gap=gap)
+        return Outputs(
+            time=t,
+            theta=math.remainder(q, 2.0 * math.pi),
+            omega=w,
+            gap=gap,
+            contact_force=math.hypot(pen.fx, pen.fy),
+            kinetic=kinetic,
+            potential=potential,
+            strain=0.0,
+            contact=pen.energy,
+            total=total,
+            torque_work=work,
+            von_mises_max=0.0,
+            substeps=substeps,
+            min_gap=gap,
+        )

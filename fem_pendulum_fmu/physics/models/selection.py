@@ -18,6 +18,7 @@ elastic frequency f1 of the hinged pendulum (modes.py):
 
 docs/reduced.md gives the measurements behind the thresholds.
 """
+
 from __future__ import annotations
 
 import logging
@@ -57,13 +58,18 @@ def choose(scene: Scene) -> Choice:
             t_c, _ = rigid.contact_scales(RigidModel.state(0.0, -omega_hit))
             ratio = f1 * t_c
             if ratio >= RIGID_CONTACT_PERIODS:
-                return Choice("rigid", f"contact {t_c * 1e3:.3g} ms lasts {ratio:.3g} first elastic periods "
-                                       f"(f1 = {f1:.4g} Hz, rigid from {RIGID_CONTACT_PERIODS:g})")
+                return Choice(
+                    "rigid",
+                    f"contact {t_c * 1e3:.3g} ms lasts {ratio:.3g} first elastic periods "
+                    f"(f1 = {f1:.4g} Hz, rigid from {RIGID_CONTACT_PERIODS:g})",
+                )
             f_top = math.sqrt(modal_basis(scene).eigen_omega2[-1]) / (2.0 * math.pi)
             f_band = EXCITED_BAND / t_c
-            why = (f"contact {t_c * 1e3:.3g} ms lasts only {ratio:.3g} first elastic periods (f1 = {f1:.4g} Hz): "
-                   f"impacts excite vibration up to about {f_band:.4g} Hz; the {scene.model.modes} modes of "
-                   f"model.modes reach {f_top:.4g} Hz")
+            why = (
+                f"contact {t_c * 1e3:.3g} ms lasts only {ratio:.3g} first elastic periods (f1 = {f1:.4g} Hz): "
+                f"impacts excite vibration up to about {f_band:.4g} Hz; the {scene.model.modes} modes of "
+                f"model.modes reach {f_top:.4g} Hz"
+            )
             if f_top < f_band:
                 return Choice("fem", why)
             return soft_or_reduced(scene, why)
@@ -88,7 +94,7 @@ def impact_speed(rigid) -> float:
     can drive a pendulum released at rest against the wall into it (the controller loop does).
     Energy balance of the rigid body."""
     scene = rigid.scene
-    energy = 0.5 * rigid.inertia * scene.omega0 ** 2 + swing_energy(scene)
+    energy = 0.5 * rigid.inertia * scene.omega0**2 + swing_energy(scene)
     return math.sqrt(2.0 * max(energy, swing_energy(scene, DESIGN_RELEASE)) / rigid.inertia)
 
 
