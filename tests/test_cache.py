@@ -86,3 +86,14 @@ def test_bytes_entries_round_trip_an_npz(tmp_path, monkeypatch):
     assert len(calls) == 2
     monkeypatch.setenv(cache.ENV, "off")
     assert cache.load_or_build("modes", key, build) == first and len(calls) == 3
+
+
+def test_an_entry_of_another_netgen_is_another_entry(monkeypatch):
+    """A mesh file netgen 6.2.2608 wrote does not load in netgen 6.2.2604 ('unknown format version'):
+    the entry's name carries the versions of the libraries that write and read it."""
+    here = cache.entry_name("mesh", {"h": 0.03}, ".vol")
+    assert here == cache.entry_name("mesh", {"h": 0.03}, ".vol")
+    versions = dict(cache.writer_versions())
+    assert versions["netgen-mesher"] != "absent" and versions["ngsolve"] != "absent"
+    monkeypatch.setattr(cache, "writer_versions", lambda: {**versions, "netgen-mesher": "6.2.2604"})
+    assert cache.entry_name("mesh", {"h": 0.03}, ".vol") != here

@@ -1,6 +1,8 @@
 """A disk cache for meshes and precomputed data, keyed by the parameters that define them.
 
-Entries are files named by a hash of (kind, key, package version); a new
+Entries are files named by a hash of (kind, key, the versions of this package
+and of the libraries that write them: a mesh file that netgen 6.2.2608 wrote
+does not load in netgen 6.2.2604); a new
 entry is written to a temporary file in the same folder and moved into place
 with os.replace, which is atomic, so processes sharing the cache never read a
 half-written entry (at worst two of them build the same entry once each).
@@ -20,6 +22,8 @@ import logging
 import os
 import tempfile
 from collections.abc import Callable
+from functools import lru_cache
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -40,8 +44,20 @@ def cache_dir() -> Path | None:
     return Path(base) / "fem_pendulum_fmu"
 
 
+@lru_cache(maxsize=1)
+def writer_versions() -> dict[str, str]:
+    """This package's version and those of the libraries whose files and numbers the cache holds."""
+    versions = {"fem_pendulum_fmu": __version__}
+    for name in ("netgen-mesher", "ngsolve", "numpy", "scipy"):
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "absent"
+    return versions
+
+
 def entry_name(kind: str, key: dict[str, Any], suffix: str) -> str:
-    text = json.dumps({"kind": kind, "key": key, "version": __version__}, sort_keys=True, default=repr)
+    text = json.dumps({"kind": kind, "key": key, "version": writer_versions()}, sort_keys=True, default=repr)
     return f"{kind}-{hashlib.sha256(text.encode()).hexdigest()[:24]}{suffix}"
 
 
