@@ -15,19 +15,21 @@ contact neither creates nor destroys energy, whatever the step size.
 from __future__ import annotations
 
 import numpy as np
-from ngsolve import CF, IfPos, InnerProduct
+from ngsolve import CF, CoefficientFunction, IfPos, InnerProduct
 
 from .scene import WallBlock
 
 _EPS_LEN = 1e-30
 
 
-def _min_with_normal(a, na, b, nb):
+def _min_with_normal(
+    a: CoefficientFunction, na: CoefficientFunction, b: CoefficientFunction, nb: CoefficientFunction
+) -> tuple[CoefficientFunction, CoefficientFunction]:
     """(min(a, b), normal of the smaller) as coefficient functions."""
     return IfPos(a - b, b, a), IfPos(a - b, nb, na)
 
 
-def depth_and_gradient(p, block: WallBlock):
+def depth_and_gradient(p: CoefficientFunction, block: WallBlock) -> tuple[CoefficientFunction, CoefficientFunction]:
     """Inside depth d(p) (negative outside) and its gradient, as coefficient functions."""
     faces = [
         (block.x_max - p[0], CF((-1.0, 0.0))),
@@ -41,11 +43,13 @@ def depth_and_gradient(p, block: WallBlock):
     return d, g
 
 
-def penalty_energy(d, k: float):
+def penalty_energy(d: CoefficientFunction, k: float) -> CoefficientFunction:
     return IfPos(d, 0.5 * k * d * d, 0.0)
 
 
-def discrete_gradient_force(p0, p1, block: WallBlock, k: float):
+def discrete_gradient_force(
+    p0: CoefficientFunction, p1: CoefficientFunction, block: WallBlock, k: float
+) -> CoefficientFunction:
     """Energy-consistent contact traction per unit reference length (force on the body)."""
     d0, _ = depth_and_gradient(p0, block)
     d1, _ = depth_and_gradient(p1, block)

@@ -21,7 +21,7 @@ from .scene import PendulumGeometry
 class HeadPoints:
     """Gauss points on the head's outer boundary ("head")."""
 
-    rule: object  # the ngsolve IntegrationRule on one boundary element
+    rule: IntegrationRule  # on one boundary element
     points: object  # the mapped points of every head element (ngsolve MeshPoints)
     weights: np.ndarray  # (P,) reference arc length belonging to each point
     elements: np.ndarray  # (E,) mesh boundary element numbers of the head, in the points' order

@@ -9,13 +9,17 @@ edges, clamped). Material names: "pendulum" and "wall".
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from netgen.occ import Circle, Compound, MoveTo, OCCGeometry, X, Y
+from netgen.occ import Circle, Compound, MoveTo, OCCGeometry, TopoDS_Shape, X, Y
 
 from .scene import PendulumGeometry, WallBlock
 
+if TYPE_CHECKING:
+    import ngsolve
 
-def pendulum_shape(geo: PendulumGeometry, refine_like_seed: bool = False):
+
+def pendulum_shape(geo: PendulumGeometry, refine_like_seed: bool = False) -> TopoDS_Shape:
     """The pendulum hanging straight down from the pivot at the origin.
 
     refine_like_seed reproduces the seed tutorial's local mesh sizes (hinge
@@ -38,7 +42,7 @@ def pendulum_shape(geo: PendulumGeometry, refine_like_seed: bool = False):
     return body
 
 
-def wall_shape(block: WallBlock):
+def wall_shape(block: WallBlock) -> TopoDS_Shape:
     wall = MoveTo(block.x_min, block.y_min).Rectangle(block.x_max - block.x_min, block.y_max - block.y_min).Face()
     wall.edges.name = "wall_fixed"
     wall.edges.Max(X).name = "wall_face"
@@ -75,7 +79,7 @@ def make_mesh(
     head_edge_size: float | None = None,
     wall_face_size: float | None = None,
     refine_like_seed: bool = False,
-):
+) -> ngsolve.Mesh:
     """A curved NGSolve mesh of the scene (order-`order` geometry).
 
     The straight-sided mesh is always read back from a netgen .vol file, the
@@ -100,7 +104,7 @@ def make_mesh(
         "seed": refine_like_seed,
     }
 
-    def write(path):
+    def write(path: Path) -> None:
         occ.GenerateMesh(maxh=mesh_size).Save(str(path))
 
     ngmesh = NetgenMesh(dim=2)

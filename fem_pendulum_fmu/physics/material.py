@@ -9,31 +9,36 @@ are per unit reference area; callers multiply by the thickness.
 from __future__ import annotations
 
 import numpy as np
-from ngsolve import Det, Grad, Id, Inv, Trace, log, sqrt
+from ngsolve import CoefficientFunction, Det, Grad, Id, Inv, Trace, log, sqrt
 
 # Gauss-Legendre points on [0, 1] for the averaged stress of the discrete gradient
 _GAUSS = {
-    n: tuple(zip((np.polynomial.legendre.leggauss(n)[0] + 1) / 2, np.polynomial.legendre.leggauss(n)[1] / 2))
+    # leggauss(n) gives n points and n weights
+    n: tuple(
+        zip((np.polynomial.legendre.leggauss(n)[0] + 1) / 2, np.polynomial.legendre.leggauss(n)[1] / 2, strict=True)
+    )
     for n in (1, 2, 3)
 }
 
 
-def right_cauchy_green(F):
+def right_cauchy_green(F: CoefficientFunction) -> CoefficientFunction:
     return F.trans * F
 
 
-def energy_density(C, lam: float, mu: float):
+def energy_density(C: CoefficientFunction, lam: float, mu: float) -> CoefficientFunction:
     log_j = 0.5 * log(Det(C))
     return 0.5 * mu * (Trace(C) - 2 - 2 * log_j) + 0.5 * lam * log_j * log_j
 
 
-def pk2_stress(C, lam: float, mu: float):
+def pk2_stress(C: CoefficientFunction, lam: float, mu: float) -> CoefficientFunction:
     """Second Piola-Kirchhoff stress S = 2 dpsi/dC."""
     C_inv = Inv(C)
     return mu * (Id(2) - C_inv) + lam * 0.5 * log(Det(C)) * C_inv
 
 
-def averaged_pk2_stress(C0, C1, lam: float, mu: float, points: int):
+def averaged_pk2_stress(
+    C0: CoefficientFunction, C1: CoefficientFunction, lam: float, mu: float, points: int
+) -> CoefficientFunction:
     """2 x the mean of dpsi/dC along the straight path C0 -> C1 (Gauss rule).
 
     This is the averaged-vector-field discrete gradient in C: S : (C1 - C0)/2
@@ -48,15 +53,15 @@ def averaged_pk2_stress(C0, C1, lam: float, mu: float, points: int):
     return total
 
 
-def cauchy_stress(F, lam: float, mu: float):
+def cauchy_stress(F: CoefficientFunction, lam: float, mu: float) -> CoefficientFunction:
     J = Det(F)
     return (1 / J) * F * pk2_stress(right_cauchy_green(F), lam, mu) * F.trans
 
 
-def von_mises_plane_stress(F, lam: float, mu: float):
+def von_mises_plane_stress(F: CoefficientFunction, lam: float, mu: float) -> CoefficientFunction:
     s = cauchy_stress(F, lam, mu)
     return sqrt(s[0, 0] ** 2 + s[1, 1] ** 2 - s[0, 0] * s[1, 1] + 3 * s[0, 1] ** 2)
 
 
-def deformation_gradient(u):
+def deformation_gradient(u: CoefficientFunction) -> CoefficientFunction:
     return Id(2) + Grad(u)

@@ -21,10 +21,16 @@ from __future__ import annotations
 import io
 import math
 from dataclasses import asdict, dataclass, fields
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .scene import Scene
+
+if TYPE_CHECKING:
+    from ngsolve import CoefficientFunction, FESpace, Mesh
+    from ngsolve.la import BaseMatrix
+    from scipy.sparse import csr_matrix
 
 BASIS_VERSION = 7  # bump when the reduction changes: part of the cache key
 HEAD_RULE_ORDER = 120  # Gauss points per head boundary element: 61, i.e. ~0.5 mm apart on the default mesh
@@ -60,13 +66,15 @@ class ModalBasis:
 
     def to_bytes(self) -> bytes:
         buf = io.BytesIO()
-        np.savez(buf, **{f.name: np.asarray(getattr(self, f.name)) for f in fields(self)})
+        # Any: numpy's stub lets ** also fill savez's allow_pickle (bool), a keyword numpy < 2.1 does not have
+        arrays: dict[str, Any] = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self)}
+        np.savez(buf, **arrays)
         return buf.getvalue()
 
     @staticmethod
     def from_bytes(data: bytes) -> ModalBasis:
         with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            values = {f.name: np.array(npz[f.name]) for f in fields(ModalBasis)}
+            values: dict[str, Any] = {f.name: np.array(npz[f.name]) for f in fields(ModalBasis)}
         for name in ("inertia0", "mass"):
             values[name] = float(values[name])
         return ModalBasis(**values)
@@ -108,7 +116,7 @@ def first_elastic_frequency(scene: Scene) -> float:
     return float(load_or_build_json("first_frequency", key, build))
 
 
-def assemble(scene: Scene):
+def assemble(scene: Scene) -> tuple[Mesh, FESpace, csr_matrix, csr_matrix, csr_matrix]:
     """(mesh, space, K, M, C) of the linearised pendulum: stiffness, mass and the hinge's
     mean-displacement rows, as scipy matrices."""
     import scipy.sparse as sp
@@ -127,7 +135,7 @@ def assemble(scene: Scene):
     return mesh, V, K, M, C
 
 
-def hinged_eigenmodes(K, M, C, count: int) -> tuple[np.ndarray, np.ndarray]:
+def hinged_eigenmodes(K: csr_matrix, M: csr_matrix, C: csr_matrix, count: int) -> tuple[np.ndarray, np.ndarray]:
     """The `count` lowest elastic (omega^2, modes) with the hinge condition C u = 0; the rigid
     rotation about the pivot (omega = 0) is the lowest of all and left out."""
     import scipy.sparse as sp
@@ -141,7 +149,7 @@ def hinged_eigenmodes(K, M, C, count: int) -> tuple[np.ndarray, np.ndarray]:
     return values[order], vectors[:n, order]
 
 
-def fe_space(scene: Scene):
+def fe_space(scene: Scene) -> tuple[Mesh, FESpace]:
     """(mesh, displacement space) of the pendulum alone, as the FE model discretises it."""
     from ngsolve import VectorH1
 
@@ -151,7 +159,7 @@ def fe_space(scene: Scene):
     return mesh, VectorH1(mesh, order=scene.model.order)
 
 
-def _scipy(matrix):
+def _scipy(matrix: BaseMatrix) -> csr_matrix:
     import scipy.sparse as sp
 
     rows, cols, vals = matrix.COO()
@@ -159,7 +167,9 @@ def _scipy(matrix):
     return sp.csr_matrix((np.array(vals), (np.array(rows), np.array(cols))), shape=(n, n))
 
 
-def load_corrections(scene: Scene, V, K, C, l_rot: np.ndarray, l_torque: np.ndarray) -> np.ndarray:
+def load_corrections(
+    scene: Scene, V: FESpace, K: csr_matrix, C: csr_matrix, l_rot: np.ndarray, l_torque: np.ndarray
+) -> np.ndarray:
     """Static deflections of the hinged pendulum under the loads it sees: the hinge torque and
     pressure patches on the head's wall side.
 
@@ -197,7 +207,7 @@ def load_corrections(scene: Scene, V, K, C, l_rot: np.ndarray, l_torque: np.ndar
     return np.column_stack(columns)
 
 
-def rayleigh_ritz(vectors: np.ndarray, K, M) -> tuple[np.ndarray, np.ndarray]:
+def rayleigh_ritz(vectors: np.ndarray, K: csr_matrix, M: csr_matrix) -> tuple[np.ndarray, np.ndarray]:
     """Mass-orthonormal basis of span(vectors) that diagonalises K: (phi, omega^2), ascending."""
     import scipy.linalg as la
 
@@ -210,7 +220,7 @@ def rayleigh_ritz(vectors: np.ndarray, K, M) -> tuple[np.ndarray, np.ndarray]:
     return phi, values
 
 
-def mass_orthonormal(vectors: np.ndarray, M, drop: float = 1e-10) -> np.ndarray:
+def mass_orthonormal(vectors: np.ndarray, M: csr_matrix, drop: float = 1e-10) -> np.ndarray:
     """Modified Gram-Schmidt (twice) in the mass inner product; nearly dependent columns are dropped."""
     kept: list[np.ndarray] = []
     for col in vectors.T:
@@ -237,7 +247,7 @@ def compute_modes(scene: Scene) -> ModalBasis:
     u, v = V.TnT()
     eigen_omega2, eigen = hinged_eigenmodes(K, M, C, scene.model.modes)
 
-    def functional(cf, region=dx):
+    def functional(cf: CoefficientFunction, region: Any = dx) -> np.ndarray:
         return LinearForm(cf * region).Assemble().vec.FV().NumPy().copy()
 
     pos = CF((x, y))

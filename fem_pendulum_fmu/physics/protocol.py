@@ -10,7 +10,7 @@ import io
 import json
 import math
 from dataclasses import asdict, dataclass, field, fields
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -68,11 +68,9 @@ class ModelState:
             "scalars": self.scalars,
         }
         buf = io.BytesIO()
-        np.savez(
-            buf,
-            __header__=np.frombuffer(json.dumps(header).encode(), dtype=np.uint8),
-            **{f"a_{k}": v for k, v in self.arrays.items()},
-        )
+        # Any: numpy's stub lets ** also fill savez's allow_pickle (bool), a keyword numpy < 2.1 does not have
+        arrays: dict[str, Any] = {f"a_{k}": v for k, v in self.arrays.items()}
+        np.savez(buf, __header__=np.frombuffer(json.dumps(header).encode(), dtype=np.uint8), **arrays)
         return buf.getvalue()
 
     @staticmethod
@@ -97,6 +95,7 @@ class PendulumModel(Protocol):
 
     scene: Scene
     fidelity: str
+    time: float  # the current model time (s)
 
     def advance(self, t_end: float, torque: float) -> Outputs:
         """Integrate from the current time to t_end with the torque held constant.

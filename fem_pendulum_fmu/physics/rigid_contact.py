@@ -74,7 +74,7 @@ def face_depths(block: WallBlock) -> tuple[tuple[float, float, float], ...]:
 
 
 @lru_cache(maxsize=64)
-def split_lines(block: WallBlock) -> tuple[tuple[float, float, float], ...]:
+def split_lines(block: WallBlock) -> tuple[tuple[float, float, float, float], ...]:
     """Lines (beta, nx, ny, C) with n . p = C, n = (cos beta, sin beta): the four faces and the
     six lines where two face depths are equal. Along an arc, the nearest face and the sign
     of the depth can only change where the arc crosses one of them."""
@@ -136,7 +136,7 @@ def inside_pieces(arc: Arc, block: WallBlock) -> list[Piece]:
     cuts.sort()
     faces = face_depths(block)
     pieces: list[Piece] = []
-    for s0, s1 in zip(cuts[:-1], cuts[1:]):
+    for s0, s1 in zip(cuts[:-1], cuts[1:], strict=True):
         if s1 <= s0:
             continue
         mid = arc.start + 0.5 * (s0 + s1)
@@ -175,7 +175,7 @@ def penalty(arc: Arc, block: WallBlock, hk: float, pieces: list[Piece] | None = 
         s_d = s_dd = s_dj = s_h = 0.0
         for k in range(n_sub):
             mid = a + (k + 0.5) * width
-            for xi, wi in zip(_GL_X, _GL_W):
+            for xi, wi in zip(_GL_X, _GL_W, strict=True):  # both of leggauss(8)
                 ang = mid + half * xi
                 px, py = cx + R * math.cos(ang), cy + R * math.sin(ang)
                 d = c + gx * px + gy * py
@@ -237,7 +237,7 @@ def outside_distance(arc: Arc, block: WallBlock) -> tuple[float, float, float, f
     cx, cy, R = arc.cx, arc.cy, arc.radius
     best = (math.inf, 0.0, 0.0, 0.0, 0.0)  # dist, px, py, qx, qy
 
-    def consider(dist, px, py, qx, qy):
+    def consider(dist: float, px: float, py: float, qx: float, qy: float) -> None:
         nonlocal best
         if dist < best[0]:
             best = (dist, px, py, qx, qy)

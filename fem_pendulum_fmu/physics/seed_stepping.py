@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 from .protocol import StepFailed
-from .stepping import AdvanceResult, StepControl
+from .stepping import AdvanceResult, StepControl, Steppable, X
 
 GAP_RULE = ((1e-3, 1e-4), (5e-3, 5e-4), (1e-2, 1e-3))  # (gap below, step), the seed's thresholds
 
@@ -29,7 +29,9 @@ def gap_rule_step(gap: float, base: float) -> float:
     return base
 
 
-def advance(model, x, t: float, t_end: float, torque: float, scheme: str, control: StepControl) -> AdvanceResult:
+def advance(
+    model: Steppable[X], x: X, t: float, t_end: float, torque: float, scheme: str, control: StepControl
+) -> AdvanceResult[X]:
     """Integrate from t to t_end with the seed's step sizes; raises StepFailed like stepping.advance."""
     substeps = rejected = 0
     min_gap = math.inf

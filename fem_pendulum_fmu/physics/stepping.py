@@ -29,9 +29,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Generic, Protocol, TypeVar
+from typing import TYPE_CHECKING, Generic, Protocol, TypeVar
 
 from .protocol import Outputs, StepFailed, check_advance_args
+
+if TYPE_CHECKING:
+    from .scene import Scene
 
 X = TypeVar("X")
 
@@ -57,7 +60,7 @@ class StepControl:
     max_substeps: int = 0  # accepted steps allowed per advance; 0 = no limit
 
     @classmethod
-    def for_scene(cls, scene) -> StepControl:
+    def for_scene(cls, scene: Scene) -> StepControl:
         """The step control a scene's solver.* parameters describe (every fidelity uses this)."""
         return cls(
             max_step=scene.solver.max_step, tolerance=scene.solver.tolerance, max_substeps=scene.solver.max_substeps
@@ -98,7 +101,9 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, co
         dt = max(dt, control.min_step)
         if remaining - dt < control.min_step:
             dt = remaining
-        x_new, dt, fails = _step_locating_onset(model, x, dt, torque, gap, pen_tol, dt_contact, control)
+        # named first: unpacked in place, mypy would solve the step's state type as X | None
+        onset = _step_locating_onset(model, x, dt, torque, gap, pen_tol, dt_contact, control)
+        x_new, dt, fails = onset
         rejected += fails
         if x_new is None:
             dt_cap = dt / 2.0
@@ -121,7 +126,16 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, co
     return AdvanceResult(x, substeps, rejected, min_gap)
 
 
-def _step_locating_onset(model, x, dt, torque, gap0, pen_tol, dt_contact, control):
+def _step_locating_onset(
+    model: Steppable[X],
+    x: X,
+    dt: float,
+    torque: float,
+    gap0: float,
+    pen_tol: float,
+    dt_contact: float,
+    control: StepControl,
+) -> tuple[X | None, float, int]:
     """Take one step; if it plunges from free flight deeper than pen_tol, re-aim it at the onset.
 
     Bracketing regula falsi on the step size: `lo` ends outside, `hi` too deep.
@@ -159,11 +173,30 @@ def _step_locating_onset(model, x, dt, torque, gap0, pen_tol, dt_contact, contro
     return model.step(x, dt, torque), dt, fails
 
 
-class SteppedModel:
+class SteppedModel(Generic[X]):
     """`advance` and `outputs` of the protocol for a model whose whole state is `self._x`,
     stepped by this module (rigid and reduced; the FE model adds threads and its Jacobian).
 
-    Needs `self._x`, `self.time`, `self.control` and `self._compute_outputs(x, t, substeps)`."""
+    Needs `self._x`, `self.time`, `self.control`, the `Steppable` methods and
+    `self._compute_outputs(x, t, substeps)`."""
+
+    _x: X
+    time: float
+    control: StepControl
+    _outputs: Outputs
+    last_min_gap: float
+
+    def step(self, x: X, dt: float, torque: float) -> X | None:
+        raise NotImplementedError
+
+    def gap_and_rate(self, x: X) -> tuple[float, float]:
+        raise NotImplementedError
+
+    def contact_scales(self, x: X) -> tuple[float, float]:
+        raise NotImplementedError
+
+    def _compute_outputs(self, x: X, t: float, substeps: int) -> Outputs:
+        raise NotImplementedError
 
     def advance(self, t_end: float, torque: float) -> Outputs:
         check_advance_args(self.time, t_end, torque)

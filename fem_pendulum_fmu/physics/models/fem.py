@@ -84,7 +84,7 @@ class FemModel:
     def _load(self, u0: np.ndarray, v0: np.ndarray, dt: float, torque: float, active: np.ndarray | None) -> None:
         """Set the step form's inputs: start state, size, torque, contact set, the meshed wall's pairs."""
         self.inputs.set(u0, v0, dt, torque)
-        if self.form.active is not None:
+        if self.form.active is not None and active is not None:  # both or neither: see load_step
             self.head.activate(self.form.active, active)
         self.form.update_wall_pairs(self.inputs.u0)
 

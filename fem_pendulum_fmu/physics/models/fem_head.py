@@ -30,7 +30,9 @@ class HeadBoundary:
         self.elements = head.elements
         self.point_element = np.repeat(np.arange(len(head.elements)), len(head.rule))
         self.active_local: set[int] = set()  # head elements (local indices) with contact assembled
-        self._closest = None  # (state, closest point) of the last state asked about
+        self._closest: tuple[FemState, ClosestPoint] | None = (
+            None  # (state, closest point) of the last state asked about
+        )
 
     def positions(self, u: np.ndarray) -> np.ndarray:
         gf_u = self._space.gf_u

@@ -76,7 +76,7 @@ class HeldJacobianNewton:
         res = self._res
         scale = max(float(np.max(np.abs(dt * xs.v))), 1e-12)
         if self.held is not None and not self.ready:
-            self._rebuild_held(xs, dt, torque)
+            self._rebuild_held(self.held, xs, dt, torque)
         # a different step size needs a new Jacobian; round-off in dt (masters compute t + h differently) does not
         refresh = self.held is None or abs(self.held.dt - dt) > 1e-9 * dt
         last = math.inf
@@ -116,9 +116,8 @@ class HeldJacobianNewton:
         self._factorise()
         self.ready = True
 
-    def _rebuild_held(self, xs: FemState, dt: float, torque: float) -> None:
+    def _rebuild_held(self, jp: JacobianPoint, xs: FemState, dt: float, torque: float) -> None:
         """Re-create the held Jacobian (after a restore) at its recorded inputs, then restore the step's."""
-        jp = self.held
         w_now = self.w.vec.FV().NumPy().copy()
         active_now = self._active_now()
         self._load(jp.u0, jp.v0, jp.dt, jp.torque, jp.active)

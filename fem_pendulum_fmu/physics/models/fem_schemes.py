@@ -62,7 +62,7 @@ class StepInputs:
     a0: GridFunction  # start acceleration: read by the Newmark form only
     dt: Parameter
     torque_load: Parameter  # the torque times torque_scale
-    torque_weight: object  # the hinge edge's load weight x / w (coefficient function)
+    torque_weight: CoefficientFunction  # the hinge edge's load weight x / w (coefficient function)
     torque_scale: float  # 1 / moment of the unit-weight load
 
     def set(self, u0: np.ndarray, v0: np.ndarray, dt: float, torque: float) -> None:
@@ -83,8 +83,8 @@ class StepForm:
     """The residual form of one step and its contact parts."""
 
     form: BilinearForm
-    active: object | None  # ngsolve BitArray: head elements with rigid-wall contact assembled (None: no such contact)
-    wall_contact: object | None  # ngsolve ContactBoundary of the meshed wall (None: not meshed, or k = 0)
+    active: ngs.BitArray | None  # head elements with rigid-wall contact assembled (None: no such contact)
+    wall_contact: ngs.ContactBoundary | None  # ContactBoundary of the meshed wall (None: not meshed, or k = 0)
 
     def update_wall_pairs(self, u0: GridFunction) -> None:
         """Pair the meshed wall's face with the head at the displacement u0 (nothing without that wall)."""

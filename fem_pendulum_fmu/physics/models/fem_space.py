@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from ngsolve import CF, GridFunction, NumberSpace, VectorH1, x, y
+from ngsolve import CF, CoefficientFunction, FESpace, GridFunction, Mesh, NumberSpace, VectorH1, x, y
 
 from ..geometry import make_mesh
 from ..scene import Material, Scene
@@ -35,16 +35,16 @@ class FemSpace:
     """The mesh and spaces of the FE model, and what every part of it needs to know about them."""
 
     scene: Scene
-    mesh: object  # ngsolve Mesh: the pendulum, and the wall block when it is meshed
-    V: object  # VectorH1 displacement space (the wall's outer edges clamped when meshed)
-    X: object  # V x the two hinge multipliers: the space of the step's unknowns
+    mesh: Mesh  # ngsolve Mesh: the pendulum, and the wall block when it is meshed
+    V: FESpace  # VectorH1 displacement space (the wall's outer edges clamped when meshed)
+    X: FESpace  # V x the two hinge multipliers: the space of the step's unknowns
     bodies: list[tuple[str, Material]]  # (region, material); the meshed wall is a plate of the pendulum's thickness
     deformable_wall: bool
     contact_on: bool  # penalty contact with the rigid (analytic) wall block
     contact_order: int  # integration order on the head boundary (contact forms, energies and gap points)
-    pos: object  # the coefficient function (x, y)
-    gf_u: object  # evaluation fields: a state's u and v are loaded here to evaluate outputs and head points
-    gf_v: object
+    pos: CoefficientFunction  # the coefficient function (x, y)
+    gf_u: GridFunction  # evaluation fields: a state's u and v are loaded here to evaluate outputs and head points
+    gf_v: GridFunction
 
     @property
     def nV(self) -> int:

@@ -5,8 +5,9 @@ Floating frame of reference: a material point X of the pendulum is at
     x = R(theta) (X + sum_j phi_j(X) q_j)
 
 with a mass-normalised basis phi_j of the hinged pendulum's elastic motion
-(modes.py: eigenmodes and static corrections for the loads). The modes are mass-orthogonal to the rigid rotation, so theta is
-the FE model's best-fit angle and p_theta its angular momentum about the pivot.
+(modes.py: eigenmodes and static corrections for the loads). The modes are
+mass-orthogonal to the rigid rotation, so theta is the FE model's best-fit angle
+and p_theta its angular momentum about the pivot.
 Energies, with z = (theta, q) and momenta p = M(q) dz/dt:
 
 * kinetic  1/2 p^T M(q)^-1 p,  M(q) = [[I0 + 2 a.q + q.q, (G^T q)^T], [G^T q, Id]]
@@ -28,6 +29,7 @@ energy. Step sizes come from stepping.py, as for the other fidelities.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -37,6 +39,9 @@ from ..modes import ModalBasis, modal_basis
 from ..protocol import ModelState, Outputs, restored_min_gap
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
+
+if TYPE_CHECKING:
+    from ngsolve import CoefficientFunction, GridFunction
 
 NEWTON_MAX_IT = 40
 TANGENT_AFTER = 4  # Newton iterations on the linear modal stiffness before the strain's tangent is assembled
@@ -104,7 +109,7 @@ class NeoHookeanStrain:
         self._lam, self._mu = scene.pendulum.lame
         self.linear_hessian = np.diag(omega2)  # the tangent at q = 0
 
-    def _kinematics(self, q: np.ndarray):
+    def _kinematics(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         F = (self._G @ q).reshape(-1, 2, 2)
         F[:, 0, 0] += 1.0
         F[:, 1, 1] += 1.0
@@ -150,7 +155,7 @@ class NeoHookeanStrain:
         return np.einsum("pam,pan->mn", G * self._weights[:, None, None], AG, optimize=True)
 
 
-class ReducedModel(SteppedModel):
+class ReducedModel(SteppedModel[tuple]):
     """The reduced fidelity (fidelity "reduced").
 
     State: z = (theta, q), the momenta p and the torque work. wall.kind
@@ -179,9 +184,10 @@ class ReducedModel(SteppedModel):
         self._head_radius = float(np.max(np.linalg.norm(b.head_X - self._head_centre, axis=1)))
         self.control = StepControl.for_scene(scene)
         self._memo: dict[bytes, tuple] = {}
-        self._closest_memo = None
+        self._closest_memo: tuple[tuple, ClosestPoint] | None = None
         self._identity = np.eye(self.n)
-        self._stress = None
+        # (field, von Mises of it, the elements' integration points), built when first asked for
+        self._stress: tuple[GridFunction, CoefficientFunction, Any] | None = None
         self._strain = LinearStrain(b.omega2) if uses_linear_strain(scene) else NeoHookeanStrain(scene, b.phi, b.omega2)
         z0 = np.zeros(self.n)
         z0[0] = float(scene.theta0)

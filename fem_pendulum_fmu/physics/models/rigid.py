@@ -19,6 +19,7 @@ angle. Step sizes (contact onset, ~30 steps per contact) come from stepping.py.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 from .. import rigid_contact
 from ..contact_time import effective_mass
@@ -34,7 +35,7 @@ APPROACH_SPEED_FLOOR = 1e-3  # m/s: a head at rest near the block is assumed to 
 NEAR_FRACTION = 1.0  # contact scales are reported while the gap is below this many head radii
 
 
-class RigidModel(SteppedModel):
+class RigidModel(SteppedModel[tuple]):
     """The rigid fidelity (fidelity "rigid").
 
     State: theta, omega and the torque work. Outputs: strain energy and
@@ -100,6 +101,7 @@ class RigidModel(SteppedModel):
         if hit is not None:
             return hit
         D = self._depth
+        result: tuple[Sequence[rigid_contact.Piece], rigid_contact.Penalty]
         if not rigid_contact.circle_may_touch(D * math.sin(q), -D * math.cos(q), self._radius, self.block):
             result = ((), rigid_contact.Penalty(0.0, 0.0, 0.0, 0.0, 0.0))
         else:

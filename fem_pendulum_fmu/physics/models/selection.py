@@ -88,7 +88,7 @@ def soft_or_reduced(scene: Scene, why: str) -> Choice:
     return Choice("fem", why + "; the body is soft (E / rho <= 1e5 m^2/s^2): large deflections need fem")
 
 
-def impact_speed(rigid) -> float:
+def impact_speed(rigid: RigidModel) -> float:
     """Angular speed at theta = 0, where the head touches the wall: that of the released swing, and
     at least that of a release from horizontal, since the torque input (unknown at initialisation)
     can drive a pendulum released at rest against the wall into it (the controller loop does).
