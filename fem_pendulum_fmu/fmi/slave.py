@@ -20,7 +20,7 @@ import math
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import Any, Protocol, cast
+from typing import Any
 
 import numpy as np
 from pythonfmu import Fmi2Slave
@@ -82,16 +82,6 @@ def _error_reporter(resources: str | None) -> Callable[[bytes], Any] | None:
     return _REPORTERS[resources]
 
 
-class _Model(PendulumModel, Protocol):
-    """What the slave needs of a model: the protocol and the current time, which every fidelity has."""
-
-    time: float
-
-
-def _create(scene: Scene) -> _Model:
-    return cast(_Model, create(scene))
-
-
 class _FmiLogHandler(logging.Handler):
     """Forwards the package's Python log records to one instance's FMI logger."""
 
@@ -118,7 +108,7 @@ class PendulumSlave(Fmi2Slave):
         self.interface = fmi_interface.load(self.resources)
         self.values: dict[str, Any] = {}
         self.torque = 0.0
-        self.model: _Model | None = None
+        self.model: PendulumModel | None = None
         self.outputs: Outputs | None = None
         self.init_error: str | None = None
         self.broken: str | None = None  # set when the model raised something other than StepFailed
@@ -288,7 +278,7 @@ class PendulumSlave(Fmi2Slave):
         self.initialised = True
         with self._logging():
             try:
-                self.model = _create(self.scene())
+                self.model = create(self.scene())
             except (ValueError, KeyError) as exc:
                 self.init_error = f"invalid parameters: {exc}"
                 self._error(self.init_error)
@@ -368,7 +358,7 @@ class PendulumSlave(Fmi2Slave):
             try:
                 if model is None:
                     with self._logging():
-                        model = _create(self.scene(state["values"]))
+                        model = create(self.scene(state["values"]))
                 model.set_state(state["model"].copy())
             except Exception as exc:  # invalid parameters, a state of another fidelity or mesh
                 problem = f"{type(exc).__name__}: {exc}"
