@@ -75,8 +75,16 @@ def run(fmu: Path, preset: str, fidelity: str, t_end: float, tmp: Path) -> tuple
     out = tmp / f"{preset}_{fidelity}.npy"
     env = dict(os.environ, OMP_NUM_THREADS="1")
     proc = subprocess.run(
-        [sys.executable, "-c", CHILD, str(fmu), preset, str(fmi_value("model.fidelity", fidelity)), str(t_end),
-         str(out)],
+        [
+            sys.executable,
+            "-c",
+            CHILD,
+            str(fmu),
+            preset,
+            str(fmi_value("model.fidelity", fidelity)),
+            str(t_end),
+            str(out),
+        ],
         capture_output=True,
         text=True,
         env=env,

@@ -92,7 +92,9 @@ def test_rubber_reduced_tracks_fem_through_the_first_impact_far_better_than_rigi
 
 @pytest.mark.slow
 def test_rubber_torque_pulse_keeps_the_energy_balance():
-    pulse = lambda t: 2.0 if t < 0.05 else 0.0
+    def pulse(t):
+        return 2.0 if t < 0.05 else 0.0
+
     out = trace(create(compliant(model__fidelity="reduced")), 0.3, pulse)
     assert np.all(np.isfinite(out))
     assert np.max(np.abs(out[:, 3])) < ENERGY_BOUND

@@ -269,7 +269,9 @@ def test_state_round_trip_is_bit_identical():
 
 
 def test_two_runs_are_identical():
-    wave = lambda t: 3.0 * math.sin(20 * t)
+    def wave(t):
+        return 3.0 * math.sin(20 * t)
+
     assert np.array_equal(run(rigid(), 0.6, wave), run(rigid(), 0.6, wave))
 
 

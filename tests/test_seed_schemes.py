@@ -111,6 +111,6 @@ def test_gap_min_sees_the_penetration_between_communication_points(fidelity):
         out = model.advance(k * 1e-3, 0.0)
         gaps.append(out.gap)
         mins.append(out.min_gap)
-    assert all(m <= g for m, g in zip(mins, gaps))
+    assert all(m <= g for m, g in zip(mins, gaps, strict=True))  # appended together
     assert min(mins) < -3e-5  # the impact's 55-65 um penetration, whether or not a sample falls in it
     assert min(mins) < min(gaps)
