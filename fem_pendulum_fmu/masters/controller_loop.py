@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..physics.swing import rebounds
 from .named_slave import NamedSlave
 from .open_loop import parse_start_values
 
@@ -90,15 +91,9 @@ def run_loop(
 
 
 def wall_impacts(result: np.ndarray, band: float = 1e-3) -> np.ndarray:
-    """Times of the communication steps in which the pendulum rebounded from the wall.
-
-    A stiff impact lasts about 0.3 ms, so it mostly falls between two 1 ms
-    samples and the sampled contact_force misses it; what a sample cannot miss
-    is its effect: omega turns from negative (towards the wall) to positive
-    within the step while the gap is below `band` at one end of the step."""
-    w, g = result["omega"], result["gap"]
-    rebound = (w[:-1] < 0) & (w[1:] > 0) & ((g[:-1] < band) | (g[1:] < band))
-    return result["time"][:-1][rebound]
+    """Times of the communication steps in which the pendulum rebounded from the wall (physics.swing.rebounds:
+    omega turns from towards the wall to away from it within the step, the gap below `band` at one end)."""
+    return result["time"][:-1][rebounds(result["omega"], result["gap"], band)]
 
 
 def tracking_error(result: np.ndarray) -> float:
