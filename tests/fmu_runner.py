@@ -6,6 +6,7 @@ run, freed (fmi2FreeInstance, library unloaded) before the next.
 
 from __future__ import annotations
 
+import functools
 import json
 import subprocess
 import sys
@@ -40,8 +41,8 @@ def fmi_value(name: str, value):
     # imported here, in the parent: the child process must not import the package before the FMU does
     from fem_pendulum_fmu.fmi import interface
 
-    items = interface.load().by_name(name).items
-    return items.index(value) + 1 if items and isinstance(value, str) else value
+    var = interface.load().by_name(name)
+    return var.item_number(value) if var.items and isinstance(value, str) else value
 
 
 def run_schedule(fmu: str, params: dict, schedule: list, repeat: int = 1) -> list[np.ndarray]:
@@ -68,10 +69,7 @@ def _child() -> None:
         inst = Instance(job["fmu"], f"run{r}", **params)
         reals = [inst.var[c].valueReference for c in COLUMNS[1:-2]]
         sub = inst.var["solver.substeps"].valueReference
-
-        def row(t, status):
-            return [t, *inst.fmu.getReal(reals), float(inst.fmu.getInteger([sub])[0]), status]
-
+        row = functools.partial(_row, inst, reals, sub)
         rows = [row(0.0, 0)]
         t = 0.0
         for h, torque in job["schedule"]:
@@ -88,6 +86,11 @@ def _child() -> None:
         runs.append(rows)
         inst.close()
     print(json.dumps(runs))
+
+
+def _row(inst, reals: list[int], sub: int, t: float, status: int) -> list[float]:
+    """One row of COLUMNS: t, the Real outputs, the substeps and the status."""
+    return [t, *inst.fmu.getReal(reals), float(inst.fmu.getInteger([sub])[0]), status]
 
 
 def col(run: np.ndarray, name: str) -> np.ndarray:

@@ -38,6 +38,13 @@ class Variable:
             raise ValueError(f"parameter {self.name} = {value!r} is not allowed: choose one of {allowed}")
         return self.items[int(value) - 1]
 
+    def item_number(self, name: str) -> int:
+        """Enumeration item name -> value (1, 2, ...), the reverse of item_name; ValueError naming the allowed items."""
+        if name not in self.items:
+            allowed = f"choose one of {', '.join(self.items)}" if self.items else "it is not an enumeration"
+            raise ValueError(f"parameter {self.name} = {name!r} is not allowed: {allowed}")
+        return self.items.index(name) + 1
+
 
 @dataclass(frozen=True)
 class Interface:

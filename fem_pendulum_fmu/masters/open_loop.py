@@ -41,7 +41,7 @@ def parse_start_values(items: list[str]) -> dict[str, float | int | bool]:
         except KeyError:
             raise SystemExit(f"--set {item!r}: {name} is not a variable of the FMU (see the README's table)") from None
         if var.items and text in var.items:
-            values[name] = var.items.index(text) + 1
+            values[name] = var.item_number(text)
         elif var.type == "Boolean" and text.lower() in ("true", "false"):
             values[name] = text.lower() == "true"
         else:

@@ -133,6 +133,6 @@ def start_values(values: dict[str, Value]) -> dict[str, float | int | bool]:
     ifc = interface.load()
     out: dict[str, float | int | bool] = {}
     for name, value in values.items():
-        items = ifc.by_name(name).items
-        out[name] = items.index(value) + 1 if items and isinstance(value, str) else value  # type: ignore[assignment]
+        var = ifc.by_name(name)
+        out[name] = var.item_number(value) if var.items and isinstance(value, str) else value  # type: ignore[assignment]
     return out
