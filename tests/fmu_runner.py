@@ -28,6 +28,8 @@ COLUMNS = (
     "energy.total",
     "energy.torque_work",
     "gap_min",
+    "contact_force_max",
+    "contact_impulse",
     "solver.substeps",
     "status",
 )

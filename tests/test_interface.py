@@ -66,6 +66,8 @@ def test_the_design_contract_is_declared():
         "solver.max_substeps",
         "solver.scheme",
         "gap_min",
+        "contact_force_max",
+        "contact_impulse",
     }
     assert [v.value_reference for v in ifc.variables] == list(range(len(ifc.variables)))
 
@@ -124,7 +126,7 @@ def test_the_slave_builds_the_scene_its_parameters_describe():
 def test_template_is_complete_fmi():
     root = ET.parse(TEMPLATE).getroot()
     units = {u.get("name") for u in root.iter("Unit")}
-    assert units == {"rad", "rad/s", "N.m", "m", "N", "J", "Pa", "s", "kg/m3", "Pa/m", "m/s2"}
+    assert units == {"rad", "rad/s", "N.m", "m", "N", "N.s", "J", "Pa", "s", "kg/m3", "Pa/m", "m/s2"}
     cs = root.find("CoSimulation").attrib
     for flag in ("canHandleVariableCommunicationStepSize", "canGetAndSetFMUstate", "canSerializeFMUstate"):
         assert cs[flag] == "true"

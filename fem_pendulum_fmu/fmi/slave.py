@@ -49,6 +49,8 @@ OUTPUT_FIELDS = {
     "stress.von_mises_max": "von_mises_max",
     "solver.substeps": "substeps",
     "gap_min": "min_gap",
+    "contact_force_max": "contact_force_max",
+    "contact_impulse": "contact_impulse",
 }
 # Integer aliases of enumerations for masters that cannot set enumerations (libcosim)
 ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}

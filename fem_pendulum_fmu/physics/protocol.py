@@ -39,6 +39,8 @@ class Outputs:
     von_mises_max: float = 0.0
     substeps: int = 0
     min_gap: float = math.nan  # smallest gap at the internal steps of the last advance; nan = not reported
+    contact_force_max: float = 0.0  # largest contact force at the internal steps of the last advance (N)
+    contact_impulse: float = 0.0  # |sum over those steps of the scheme's contact force times the step| (N.s)
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
@@ -125,6 +127,22 @@ def restored_min_gap(state: ModelState, outputs: Outputs) -> float:
     """The gap_min output a model had when `state` was taken (its scalar "last_min_gap"; a state
     stored without one: the gap of `outputs`, those of the restored state)."""
     return float(state.scalars.get("last_min_gap", outputs.gap))
+
+
+LAST_ADVANCE_FIELDS = ("contact_force_max", "contact_impulse")
+"""Outputs that describe the last advance rather than the state: a state carries them as scalars
+"last_<name>" and set_state restores them (as restored_min_gap does gap_min)."""
+
+
+def last_advance_scalars(outputs: Outputs) -> dict[str, float]:
+    """The scalars of a ModelState that keep the LAST_ADVANCE_FIELDS of `outputs`."""
+    return {f"last_{name}": float(getattr(outputs, name)) for name in LAST_ADVANCE_FIELDS}
+
+
+def restore_last_advance(state: ModelState, outputs: Outputs) -> None:
+    """Set the LAST_ADVANCE_FIELDS of `outputs` to those `state` was taken with (0 if it has none)."""
+    for name in LAST_ADVANCE_FIELDS:
+        setattr(outputs, name, float(state.scalars.get(f"last_{name}", 0.0)))
 
 
 OUTPUT_FIELDS = tuple(f.name for f in fields(Outputs))

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 from .protocol import StepFailed
-from .stepping import AdvanceResult, StepControl, Steppable, X
+from .stepping import AdvanceResult, ContactTally, StepControl, Steppable, X
 
 GAP_RULE = ((1e-3, 1e-4), (5e-3, 5e-4), (1e-2, 1e-3))  # (gap below, step), the seed's thresholds
 
@@ -36,6 +36,7 @@ def advance(
     substeps = rejected = 0
     min_gap = math.inf
     halvings = 0
+    contact = ContactTally()
     while t_end - t > 0.0:
         remaining = t_end - t
         gap = model.gap_and_rate(x)[0]
@@ -54,6 +55,7 @@ def advance(
                 )
             continue
         halvings = max(halvings - 1, 0)
+        contact.add(model, x, x_new, dt, gap)
         x = x_new
         t = t_end if dt >= remaining else t + dt
         substeps += 1
@@ -63,4 +65,4 @@ def advance(
                 f"{control.max_substeps} internal steps (stopped at t = {t:.9g} s)"
             )
     min_gap = min(min_gap, model.gap_and_rate(x)[0])
-    return AdvanceResult(x, substeps, rejected, min_gap)
+    return AdvanceResult(x, substeps, rejected, min_gap, contact)

@@ -22,14 +22,19 @@ The rule, in words (it is what `solver.max_step` and `solver.tolerance` mean):
   shorter communication step.
 
 Models supply the single energy-consistent step and the contact scales; this
-module only decides the step sizes.
+module only decides the step sizes. It also tallies the contact over the
+accepted steps of an advance (`ContactTally`): the largest contact force at
+their ends and the impulse, the sum of the scheme's own contact force times
+the step, so that an impact shorter than a communication step is still seen.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Generic, Protocol, TypeVar
+
+import numpy as np
 
 from .protocol import Outputs, StepFailed, check_advance_args
 
@@ -49,6 +54,13 @@ class Steppable(Protocol[X]):
     def contact_scales(self, x: X) -> tuple[float, float]:
         """(estimated contact duration in s, estimated largest penetration in m) for
         the current approach or contact; (inf, 0) when no contact is in view."""
+
+    def contact_force(self, x: X) -> float:
+        """Magnitude of the resultant contact force on the pendulum at x (N)."""
+
+    def contact_impulse(self, x0: X, x1: X, dt: float) -> np.ndarray:
+        """The contact impulse (N.s, a 2-vector: force on the pendulum) of the step x0 -> x1 of size dt,
+        as the scheme applies it: the contact force of its momentum update times dt."""
 
 
 @dataclass(frozen=True)
@@ -72,11 +84,35 @@ class StepControl:
 
 
 @dataclass
+class ContactTally:
+    """Contact over the accepted steps of one advance: the largest force at their ends and the impulse."""
+
+    force_max: float = 0.0
+    impulse: np.ndarray = field(default_factory=lambda: np.zeros(2))
+
+    def add(self, model: Steppable[X], x0: X, x1: X, dt: float, gap0: float) -> None:
+        """Count an accepted step from x0 (gap gap0) to x1. A step with no point in contact at either
+        end has no contact force, so it adds nothing (and costs one gap, which the stepper reuses)."""
+        gap1 = model.gap_and_rate(x1)[0]
+        if gap0 >= 0.0 and gap1 >= 0.0:
+            return
+        self.impulse = self.impulse + model.contact_impulse(x0, x1, dt)
+        if gap1 < 0.0:
+            self.force_max = max(self.force_max, model.contact_force(x1))
+
+    def report(self, outputs: Outputs) -> None:
+        """Set the outputs' contact_force_max and contact_impulse (the impulse's magnitude)."""
+        outputs.contact_force_max = self.force_max
+        outputs.contact_impulse = float(np.hypot(self.impulse[0], self.impulse[1]))
+
+
+@dataclass
 class AdvanceResult(Generic[X]):
     state: X
     substeps: int
     rejected: int
     min_gap: float  # smallest gap seen at the internal steps of this advance (contacts between communication points)
+    contact: ContactTally = field(default_factory=ContactTally)
 
 
 def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, control: StepControl) -> AdvanceResult[X]:
@@ -85,6 +121,7 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, co
     substeps = rejected = 0
     dt_cap = control.max_step  # lowered after a failed solve, grows back on success
     min_gap = math.inf
+    contact = ContactTally()
     while t_end - t > 0.0:
         remaining = t_end - t
         gap, rate = model.gap_and_rate(x)
@@ -112,6 +149,7 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, co
                     f"the nonlinear solve failed down to the smallest step {control.min_step:g} s at t = {t:.9g} s"
                 )
             continue
+        contact.add(model, x, x_new, dt, gap)
         x = x_new
         t = t_end if dt >= remaining else t + dt
         substeps += 1
@@ -123,7 +161,7 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, co
             )
         dt_cap = min(control.max_step, 2.0 * dt_cap)
     min_gap = min(min_gap, model.gap_and_rate(x)[0])
-    return AdvanceResult(x, substeps, rejected, min_gap)
+    return AdvanceResult(x, substeps, rejected, min_gap, contact)
 
 
 def _step_locating_onset(
@@ -195,6 +233,12 @@ class SteppedModel(Generic[X]):
     def contact_scales(self, x: X) -> tuple[float, float]:
         raise NotImplementedError
 
+    def contact_force(self, x: X) -> float:
+        raise NotImplementedError
+
+    def contact_impulse(self, x0: X, x1: X, dt: float) -> np.ndarray:
+        raise NotImplementedError
+
     def _compute_outputs(self, x: X, t: float, substeps: int) -> Outputs:
         raise NotImplementedError
 
@@ -206,6 +250,7 @@ class SteppedModel(Generic[X]):
         self._outputs = self._compute_outputs(self._x, self.time, result.substeps)
         self.last_min_gap = min(result.min_gap, self._outputs.gap)
         self._outputs.min_gap = self.last_min_gap
+        result.contact.report(self._outputs)
         return self._outputs
 
     def outputs(self) -> Outputs:

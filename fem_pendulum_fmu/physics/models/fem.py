@@ -25,7 +25,15 @@ import numpy as np
 from ngsolve import CF, x, y
 
 from ..contact_time import contact_time_scale, effective_mass
-from ..protocol import ModelState, Outputs, StepFailed, check_advance_args, restored_min_gap
+from ..protocol import (
+    ModelState,
+    Outputs,
+    StepFailed,
+    check_advance_args,
+    last_advance_scalars,
+    restore_last_advance,
+    restored_min_gap,
+)
 from ..scene import Scene, validate
 from ..stepping import StepControl
 from .fem_head import HeadBoundary
@@ -150,6 +158,15 @@ class FemModel:
             self.scene.contact.stiffness * self.scene.pendulum.thickness,
         )
 
+    def contact_force(self, xs: FemState) -> float:
+        """Magnitude of the wall's resultant force on the pendulum at state xs (N)."""
+        return float(np.hypot(*self.measures.contact_force_vector(xs.u)))
+
+    def contact_impulse(self, x0: FemState, x1: FemState, dt: float) -> np.ndarray:
+        """The step's contact impulse (N.s, vector), as the scheme applies it (FemOutputs.contact_impulse)."""
+        trapezoid = self.scheme.carries_acceleration or self.space.wall_contact_on
+        return self.measures.contact_impulse(x0.u, x1.u, dt, trapezoid)
+
     # ---------------------------------------------------------------- protocol
     def advance(self, t_end: float, torque: float) -> Outputs:
         check_advance_args(self.time, t_end, torque)
@@ -168,6 +185,7 @@ class FemModel:
         self.last_min_gap = result.min_gap
         self._outputs = self.measures.of(self._state, self.time, result.substeps)
         self._outputs.min_gap = min(result.min_gap, self._outputs.gap)
+        result.contact.report(self._outputs)
         return self._outputs
 
     def outputs(self) -> Outputs:
@@ -179,6 +197,7 @@ class FemModel:
             "torque_work": s.torque_work,
             "substeps": float(self._outputs.substeps),
             "last_min_gap": self.last_min_gap,
+            **last_advance_scalars(self._outputs),
         }
         arrays = {"u": s.u.copy(), "v": s.v.copy(), "lam": s.lam.copy()}
         if s.a is not None:
@@ -216,3 +235,4 @@ class FemModel:
         self.time = state.time
         self._outputs = self.measures.of(self._state, self.time, int(sc.get("substeps", 0)))
         self.last_min_gap = self._outputs.min_gap = restored_min_gap(state, self._outputs)
+        restore_last_advance(state, self._outputs)

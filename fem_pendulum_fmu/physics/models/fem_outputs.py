@@ -69,6 +69,11 @@ class FemOutputs:
             d, grad = wall_contact.depth_and_gradient(space.pos + gf_u, sc.block)
             self._contact_energy_cf = h * wall_contact.penalty_energy(d, k)
             self._contact_force_cf = h * ngs.IfPos(d, k * d, 0.0) * (-grad)
+            # the energy-momentum form's contact term of a step from gf_u0 to gf_u (fem_schemes.py)
+            self._gf_u0 = ngs.GridFunction(space.V)
+            self._dg_force_cf = h * wall_contact.discrete_gradient_force(
+                space.pos + self._gf_u0, space.pos + gf_u, sc.block, k
+            )
 
     def torque_work_increment(self, u0: np.ndarray, u1: np.ndarray, torque: float) -> float:
         """Work of the follower load at the midpoint configuration over the step."""
@@ -116,6 +121,34 @@ class FemOutputs:
             fvec = Integrate(self._contact_force_cf, mesh, BND, order=order, definedon=head)
             c_force = float(math.hypot(fvec[0], fvec[1]))
         return c_energy, c_force
+
+    def contact_force_vector(self, u: np.ndarray) -> np.ndarray:
+        """Resultant force of the wall on the pendulum at displacement u (N, vector). The meshed wall
+        pushes along its face normal +x, with the magnitude the outputs report."""
+        space = self._space
+        if space.wall_contact_on:
+            return np.array([self._head.meshed_wall_contact(u)[1], 0.0])
+        if not space.contact_on:
+            return np.zeros(2)
+        space.gf_u.vec.FV().NumPy()[:] = u
+        mesh = space.mesh
+        head = mesh.Boundaries("head")
+        return np.array(Integrate(self._contact_force_cf, mesh, BND, order=space.contact_order, definedon=head))
+
+    def contact_impulse(self, u0: np.ndarray, u1: np.ndarray, dt: float, trapezoid: bool) -> np.ndarray:
+        """Contact impulse of a step u0 -> u1 (N.s, vector) as the scheme applies it: the discrete-gradient
+        force of the energy-momentum form times dt, integrated by the form's own rule on the head; with
+        `trapezoid` (the Newmark schemes, and the meshed wall, whose pairing force is not exposed) the
+        mean of the end forces times dt."""
+        space = self._space
+        if trapezoid or not space.contact_on:
+            return 0.5 * dt * (self.contact_force_vector(u0) + self.contact_force_vector(u1))
+        self._gf_u0.vec.FV().NumPy()[:] = u0
+        space.gf_u.vec.FV().NumPy()[:] = u1
+        mesh = space.mesh
+        head = mesh.Boundaries("head")
+        force = Integrate(self._dg_force_cf, mesh, BND, order=space.contact_order, definedon=head)
+        return dt * np.array(force)
 
     def of(self, s: FemState, t: float, substeps: int, light: bool = False) -> Outputs:
         """All outputs of a state; light: the energies only (for the energy guard)."""

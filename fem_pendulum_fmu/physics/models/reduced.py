@@ -36,7 +36,7 @@ import numpy as np
 from .. import rigid_contact
 from ..contact_time import ClosestPoint, contact_time_scale, effective_mass
 from ..modes import ModalBasis, modal_basis
-from ..protocol import ModelState, Outputs, restored_min_gap
+from ..protocol import ModelState, Outputs, last_advance_scalars, restore_last_advance, restored_min_gap
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
 
@@ -357,6 +357,32 @@ class ReducedModel(SteppedModel[tuple]):
             z1 = z1 - np.linalg.solve(jac, residual)
         return (z1, p1, work + float(Q @ dz))
 
+    def contact_force(self, x: tuple) -> float:
+        """Magnitude of the wall's force on the head at state x (N)."""
+        return float(np.hypot(*self._contact(x[0])[3]))
+
+    def contact_impulse(self, x0: tuple, x1: tuple, dt: float) -> np.ndarray:
+        """The step's contact impulse (N.s, vector). The step applies the contact's share of the
+        discrete gradient, Gc = gc(zm) + (C(z1) - C(z0) - gc(zm).dz) / (dz.M dz) M dz (the Gonzalez
+        correction is linear in the energy, so the shares of gravity, contact and strain add up to
+        the step's); Gc[0] is minus the contact moment about the pivot. The force is the midpoint's
+        penalty force scaled to that moment, so the impulse's moment is exactly the scheme's
+        contact angular impulse. A step whose midpoint is out of contact (the step onto the wall, aimed
+        at the onset): the force at the end in contact, scaled the same way."""
+        if not self.contact_on:
+            return np.zeros(2)
+        z0, z1 = x0[0], x1[0]
+        dz, zm = z1 - z0, 0.5 * (z0 + z1)
+        gcm = self._contact(zm)[1]
+        Wdz = self.mass_matrix(zm) @ dz
+        denom = float(dz @ Wdz)
+        gc = gcm + ((self._contact(z1)[0] - self._contact(z0)[0] - gcm @ dz) / denom) * Wdz if denom > 0.0 else gcm
+        for z in (zm, z1, z0):
+            _, grad, _, force = self._contact(z)
+            if grad[0] != 0.0:
+                return dt * (gc[0] / grad[0]) * force
+        return np.zeros(2)
+
     def _velocity(self, x: tuple) -> np.ndarray:
         z, p, _ = x
         return np.linalg.solve(self.mass_matrix(z), p)
@@ -418,7 +444,12 @@ class ReducedModel(SteppedModel[tuple]):
         return ModelState(
             self.fidelity,
             self.time,
-            {"torque_work": work, "substeps": float(self._outputs.substeps), "last_min_gap": self.last_min_gap},
+            {
+                "torque_work": work,
+                "substeps": float(self._outputs.substeps),
+                "last_min_gap": self.last_min_gap,
+                **last_advance_scalars(self._outputs),
+            },
             {"z": z.copy(), "p": p.copy()},
         )
 
@@ -440,6 +471,7 @@ class ReducedModel(SteppedModel[tuple]):
         self.time = float(state.time)
         self._outputs = self._compute_outputs(x, self.time, int(state.scalars.get("substeps", 0)))
         self.last_min_gap = self._outputs.min_gap = restored_min_gap(state, self._outputs)
+        restore_last_advance(state, self._outputs)
 
     # ----------------------------------------------------------------- outputs
     def _compute_outputs(self, x: tuple, t: float, substeps: int) -> Outputs:

@@ -21,10 +21,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import numpy as np
+
 from .. import rigid_contact
 from ..contact_time import effective_mass
 from ..mass_properties import gravity_moment, mass_properties
-from ..protocol import ModelState, Outputs, restored_min_gap
+from ..protocol import ModelState, Outputs, last_advance_scalars, restore_last_advance, restored_min_gap
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
 
@@ -154,16 +156,43 @@ class RigidModel(SteppedModel[tuple]):
         quot = mgd * s_m * sinc
         dquot = 0.5 * mgd * (c_m * sinc + s_m * dsinc)
         if self.contact_on:
-            pen = self._contact(q0 + u)[1]
-            if abs(u) > SMALL_STEP:
-                qc = (pen.energy - e0) / u
-                dqc = (pen.d_energy - qc) / u if abs(u) > 1e-6 else 0.5 * pen.d2_energy
-            else:  # E'(midpoint) to O(u^2)
-                qc = pen.d_energy - 0.5 * u * pen.d2_energy
-                dqc = 0.5 * pen.d2_energy
+            qc, dqc = self._contact_quotient(q0, u, e0)
             quot += qc
             dquot += dqc
         return quot, dquot
+
+    def _contact_quotient(self, q0: float, u: float, e0: float) -> tuple[float, float]:
+        """(E(q0 + u) - E(q0)) / u for the contact energy E, and its derivative in u; e0 = E(q0).
+        Minus the first is the contact torque of the step (the discrete gradient)."""
+        pen = self._contact(q0 + u)[1]
+        if abs(u) > SMALL_STEP:
+            qc = (pen.energy - e0) / u
+            dqc = (pen.d_energy - qc) / u if abs(u) > 1e-6 else 0.5 * pen.d2_energy
+        else:  # E'(midpoint) to O(u^2)
+            qc = pen.d_energy - 0.5 * u * pen.d2_energy
+            dqc = 0.5 * pen.d2_energy
+        return qc, dqc
+
+    def contact_force(self, x: tuple[float, float, float]) -> float:
+        """Magnitude of the wall's force on the head at state x (N)."""
+        pen = self.contact_energy(x[0])
+        return math.hypot(pen.fx, pen.fy)
+
+    def contact_impulse(self, x0: tuple[float, float, float], x1: tuple[float, float, float], dt: float) -> np.ndarray:
+        """The step's contact impulse (N.s, vector). The scheme applies the contact torque
+        -(E(q1) - E(q0)) / (q1 - q0); the force is the penalty force at the midpoint angle scaled to
+        that torque (its line of action the midpoint's), so the impulse's moment about the pivot is
+        exactly the scheme's contact angular impulse. A step whose midpoint is out of contact (the
+        step onto the wall, aimed at the onset): the force at the end in contact, scaled the same way."""
+        if not self.contact_on:
+            return np.zeros(2)
+        q0, q1 = x0[0], x1[0]
+        qc, _ = self._contact_quotient(q0, q1 - q0, self.contact_energy(q0).energy)
+        for q in (0.5 * (q0 + q1), q1, q0):
+            pen = self.contact_energy(q)
+            if pen.d_energy != 0.0:
+                return dt * (qc / pen.d_energy) * np.array([pen.fx, pen.fy])
+        return np.zeros(2)
 
     def _solve(self, q0: float, w0: float, dt: float, torque: float) -> float | None:
         """The increment u = q1 - q0 solving G(u) = 0 (Newton, safeguarded by a bracket)."""
@@ -257,6 +286,7 @@ class RigidModel(SteppedModel[tuple]):
                 "torque_work": work,
                 "substeps": float(self._outputs.substeps),
                 "last_min_gap": self.last_min_gap,
+                **last_advance_scalars(self._outputs),
             },
         )
 
@@ -274,6 +304,7 @@ class RigidModel(SteppedModel[tuple]):
         self.time = float(state.time)
         self._outputs = self._compute_outputs(x, self.time, int(sc.get("substeps", 0)))
         self.last_min_gap = self._outputs.min_gap = restored_min_gap(state, self._outputs)
+        restore_last_advance(state, self._outputs)
 
     # -------------------------------------------------------------- outputs
     def _compute_outputs(self, x: tuple, t: float, substeps: int) -> Outputs:
