@@ -1,8 +1,8 @@
-"""The one command line: fem-pendulum build | run | control | host-env | interface.
+"""The one command line: fem-pendulum build | run | control | sweep | host-env | interface.
 
 Each subcommand is a thin call into the package: the FMU builder (fmi/builder.py
-and masters/pid), the open-loop and controller masters (masters/), the host
-environment and the interface table (fmi/).
+and masters/pid), the open-loop, controller and sweep masters (masters/), the
+host environment and the interface table (fmi/).
 """
 
 from __future__ import annotations
