@@ -56,8 +56,10 @@ def parse_start_values(items: list[str]) -> dict[str, float | int | bool]:
 def run(
     fmu: Path, torque: np.ndarray | None, stop_time: float, step: float, start_values: dict, progress: bool = True
 ) -> np.ndarray:
-    from fmpy import simulate_fmu
+    from fmpy import read_model_description, simulate_fmu
 
+    variables = read_model_description(str(fmu)).modelVariables
+    recorded = [v.name for v in variables if v.causality in ("output", "input")]  # the torque too, for the plot
     callback = None
     bar = None
     if progress and stop_time / step > 2000:
@@ -75,6 +77,7 @@ def run(
             stop_time=stop_time,
             step_size=step,
             output_interval=step,
+            output=recorded,
             start_values=start_values,
             input=torque,
             step_finished=callback,
@@ -96,7 +99,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def command(args: argparse.Namespace) -> None:
     from fmpy.util import write_csv
 
-    from .plots import plot_results
+    from .plots import impacts, plot_results
 
     torque = read_torque_csv(args.torque) if args.torque else None
     result = run(args.fmu, torque, args.stop_time, args.step, parse_start_values(args.set))
@@ -105,9 +108,12 @@ def command(args: argparse.Namespace) -> None:
     write_csv(str(csv), result)
     png = plot_results(result, args.out.with_suffix(".png"), f"{args.fmu.name}: open loop")
     err = result["energy.total"] - result["energy.total"][0] - result["energy.torque_work"]
+    names = result.dtype.names or ()
+    force = result["contact_force_max" if "contact_force_max" in names else "contact_force"]
+    gap = result["gap_min" if "gap_min" in names else "gap"]
     print(
-        f"wrote {csv} and {png}; min gap {result['gap'].min():.3e} m, "
-        f"max contact force {result['contact_force'].max():.1f} N, max |E - E0 - W| {np.abs(err).max():.2e} J"
+        f"wrote {csv} and {png}; {impacts(result)} impacts, min gap {gap.min():.3e} m, "
+        f"max contact force {force.max():.1f} N, max |E - E0 - W| {np.abs(err).max():.2e} J"
     )
 
 
