@@ -84,6 +84,8 @@ class Instance:
             self.fmu.setReal([v.valueReference], [float(value)])
         elif v.type == "Boolean":
             self.fmu.setBoolean([v.valueReference], [bool(value)])
+        elif v.type == "String":
+            self.fmu.setString([v.valueReference], [str(value)])
         else:
             self.fmu.setInteger([v.valueReference], [int(value)])
 
@@ -195,6 +197,26 @@ def test_invalid_parameter_is_named_and_nothing_runs(fmus, tmp_path):
     probe = Instance(fmu, "probe", **COARSE)  # the refused instance did not break the FMU
     probe.step(1e-3)
     probe.close()
+
+
+@isolated
+def test_an_unwritable_field_output_folder_is_an_error_at_initialisation(fmus, tmp_path):
+    fmu, _ = fmus
+    blocker = tmp_path / "a_file"
+    blocker.write_text("a file where the folder would go")
+    cases = [
+        ({"output.vtk_folder": str(blocker / "fields")}, ["output.vtk_folder", "a_file/fields", "cannot write"]),
+        ({"output.vtk_folder": str(tmp_path / "ok"), "output.vtk_interval": 0.0}, ["output.vtk_interval", "> 0"]),
+    ]
+    for start, words in cases:
+        messages: list[str] = []
+        with pytest.raises(FMICallException, match=r"fmi2ExitInitializationMode failed with status 3 \(error\)"):
+            Instance(fmu, messages=messages, **{"model.fidelity": 2}, **start)
+        assert any(all(w in m for w in words) for m in messages), messages
+    probe = Instance(fmu, "probe", **{"model.fidelity": 2, "output.vtk_folder": str(tmp_path / "new" / "fields")})
+    probe.step(1e-3)
+    probe.close()
+    assert (tmp_path / "new" / "fields" / "pendulum.pvd").is_file()  # created, with its parents
 
 
 @isolated

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from fem_pendulum_fmu.fmi import interface
-from fem_pendulum_fmu.fmi.slave import ENUM_ALIASES, OUTPUT_FIELDS, PendulumSlave
+from fem_pendulum_fmu.fmi.slave import ENUM_ALIASES, OUTPUT_FIELDS, OUTPUT_PARAMETERS, PendulumSlave
 from fem_pendulum_fmu.physics.protocol import Outputs
 from fem_pendulum_fmu.physics.scene import FIDELITIES, WALL_KINDS, Scene, get_path
 
@@ -68,6 +68,8 @@ def test_the_design_contract_is_declared():
         "gap_min",
         "contact_force_max",
         "contact_impulse",
+        "output.vtk_folder",
+        "output.vtk_interval",
     }
     assert [v.value_reference for v in ifc.variables] == list(range(len(ifc.variables)))
 
@@ -92,6 +94,9 @@ def test_start_values_are_the_scene_defaults():
     for v in ifc.of_causality("parameter"):
         if v.name in ENUM_ALIASES:
             assert v.start == 0  # 0 = the enumeration decides
+            continue
+        if v.name in OUTPUT_PARAMETERS:  # the FMU's field output, not physics: off by default
+            assert (v.name, v.start) in {("output.vtk_folder", ""), ("output.vtk_interval", 0.01)}
             continue
         start = v.items[v.start - 1] if v.items else v.start
         assert start == get_path(scene, v.name), v.name

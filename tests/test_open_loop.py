@@ -19,6 +19,7 @@ def test_enumerations_take_item_names_or_numbers_and_numbers_keep_their_type():
         "model.order": 3,
     }
     assert parse_start_values(["model.fidelity=fem"])["model.fidelity"] == 4
+    assert parse_start_values(["output.vtk_folder=out/fields 1"]) == {"output.vtk_folder": "out/fields 1"}
 
 
 @pytest.mark.parametrize(

@@ -21,11 +21,11 @@ TEMPLATE_NAME = "modelDescription.template.xml"
 class Variable:
     name: str
     value_reference: int
-    type: str  # Real, Integer, Boolean, Enumeration
+    type: str  # Real, Integer, Boolean, Enumeration, String
     causality: str
     variability: str
     description: str
-    start: float | int | bool | None = None
+    start: float | int | bool | str | None = None
     unit: str | None = None
     display_unit: str | None = None
     declared_type: str | None = None
@@ -79,9 +79,11 @@ def template_path(resources: str | os.PathLike | None = None) -> Path:
     raise FileNotFoundError(f"{TEMPLATE_NAME} not found; looked in: {', '.join(map(str, candidates))}")
 
 
-def _start(typ: str, text: str | None) -> float | int | bool | None:
+def _start(typ: str, text: str | None) -> float | int | bool | str | None:
     if text is None:
         return None
+    if typ == "String":
+        return text
     if typ == "Real":
         return float(text)
     if typ == "Boolean":

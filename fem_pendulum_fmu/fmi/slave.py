@@ -31,6 +31,7 @@ from ..physics.models import PendulumModel, StepFailed, create
 from ..physics.protocol import ModelState, Outputs
 from ..physics.scene import Scene
 from . import interface as fmi_interface
+from .vtk_output import VtkSeries
 
 LOG = logging.getLogger("fem_pendulum_fmu")
 
@@ -54,7 +55,9 @@ OUTPUT_FIELDS = {
 }
 # Integer aliases of enumerations for masters that cannot set enumerations (libcosim)
 ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}
-_PY_TYPES = {"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean": Boolean}
+# parameters of the FMU's field output, not of the physics (scene() leaves them out)
+OUTPUT_PARAMETERS = ("output.vtk_folder", "output.vtk_interval")
+_PY_TYPES = {"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean": Boolean, "String": String}
 _TIME_TOL = 1e-9
 
 
@@ -118,6 +121,7 @@ class PendulumSlave(Fmi2Slave):
         self.terminated = False
         self.time = self.interface.start_time
         self.init_seconds = math.nan
+        self.vtk: VtkSeries | None = None  # the field output, when output.vtk_folder is set
         self._handler = _FmiLogHandler(self)
         for var in self.interface.variables:
             self._register(var)
@@ -251,7 +255,7 @@ class PendulumSlave(Fmi2Slave):
         parameters = self.values if parameters is None else parameters
         values = {}
         for var in self.interface.of_causality("parameter"):
-            if var.name in ENUM_ALIASES:
+            if var.name in ENUM_ALIASES or var.name in OUTPUT_PARAMETERS:
                 continue
             value = parameters[var.name]
             if var.items:
@@ -287,6 +291,7 @@ class PendulumSlave(Fmi2Slave):
                 return
             self.model.time = self.time
             self.outputs = self.model.outputs()
+            self._start_field_output()
             self.init_seconds = time.perf_counter() - t0
             LOG.debug("initialised %s in %.3f s", type(self.model).__name__, self.init_seconds)
 
@@ -324,7 +329,42 @@ class PendulumSlave(Fmi2Slave):
                 self.broken = f"the model failed at t = {current_time!r} ({type(exc).__name__}: {exc})"
                 self._error(f"doStep failed: {self.broken}; restore an FMU state to go on")
                 return False
+            if self.vtk is not None and self.vtk.due(self.model.time):
+                self._write_frame()
         return True
+
+    # ------------------------------------------------------------ field output
+    def _start_field_output(self) -> None:
+        """Create the field output's folder and write the frame at the start time, if output.vtk_folder is
+        set. A folder that cannot be created or written (or a bad interval) is an error of
+        exitInitializationMode with a message; doStep then refuses, as for invalid parameters."""
+        folder = str(self.values["output.vtk_folder"]).strip()
+        if not folder or self.model is None:
+            return
+        try:
+            self.vtk = VtkSeries(folder, float(self.values["output.vtk_interval"]))
+            self.vtk.write(self.model.time, self.model.fields())
+        except (OSError, ValueError) as exc:
+            self.vtk = None
+            self.init_error = f"output.vtk_folder = {folder!r}: cannot write the field output there ({exc})"
+            if isinstance(exc, ValueError):
+                self.init_error = f"invalid parameters: {exc}"
+            self._error(self.init_error)
+
+    def _write_frame(self) -> None:
+        """Write a frame of the field output; a failure (disk full, folder removed) is logged as a warning
+        and ends the field output, the simulation goes on."""
+        if self.vtk is None or self.model is None:
+            return
+        try:
+            self.vtk.write(self.model.time, self.model.fields())
+        except Exception as exc:  # the host and the simulation outlive a failed frame
+            self.log(
+                f"field output stopped at t = {self.model.time!r}: cannot write to {str(self.vtk.folder)!r} "
+                f"({type(exc).__name__}: {exc})",
+                Fmi2Status.warning,
+            )
+            self.vtk = None
 
     def terminate(self) -> None:
         self.terminated = True

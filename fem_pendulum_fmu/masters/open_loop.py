@@ -25,13 +25,13 @@ def read_torque_csv(path: Path) -> np.ndarray:
     return np.array(list(zip(data["time"], data["torque"], strict=True)), dtype=[("time", float), ("torque", float)])
 
 
-def parse_start_values(items: list[str]) -> dict[str, float | int | bool]:
+def parse_start_values(items: list[str]) -> dict[str, float | int | bool | str]:
     """NAME=VALUE pairs to start values; an enumeration takes its item name (model.fidelity=auto)
-    or number, a Boolean true/false."""
+    or number, a Boolean true/false, a String the text as it is (output.vtk_folder=out/fields)."""
     from ..fmi import interface
 
     ifc = interface.load()
-    values: dict[str, float | int | bool] = {}
+    values: dict[str, float | int | bool | str] = {}
     for item in items:
         name, _, text = item.partition("=")
         if not _:
@@ -44,6 +44,8 @@ def parse_start_values(items: list[str]) -> dict[str, float | int | bool]:
             values[name] = var.item_number(text)
         elif var.type == "Boolean" and text.lower() in ("true", "false"):
             values[name] = text.lower() == "true"
+        elif var.type == "String":
+            values[name] = text
         else:
             try:
                 values[name] = float(text) if any(c in text for c in ".eE") else int(text)

@@ -47,6 +47,18 @@ class Outputs:
 
 
 @dataclass
+class BodyField:
+    """Nodal fields of one body on the vertices of its mesh (SI units): what field output writes."""
+
+    name: str  # "pendulum", or "wall" for the meshed wall
+    points: np.ndarray  # (N, 2) reference positions of the vertices
+    cells: np.ndarray  # (M, 3) vertex indices of the triangles
+    displacement: np.ndarray  # (N, 2) the deformed position is points + displacement
+    velocity: np.ndarray  # (N, 2)
+    von_mises: np.ndarray  # (N,) plane-stress von Mises stress, averaged over the triangles at a vertex
+
+
+@dataclass
 class ModelState:
     """A model's complete state: scalars plus named numpy arrays (deep-copied on the way in and out)."""
 
@@ -113,6 +125,9 @@ class PendulumModel(Protocol):
 
     def set_state(self, state: ModelState) -> None:
         """Restore a state taken from a model built with the same scene."""
+
+    def fields(self) -> list[BodyField]:
+        """Nodal fields of the current state, the pendulum first (then the meshed wall, if any)."""
 
 
 def check_advance_args(time: float, t_end: float, torque: float) -> None:

@@ -26,6 +26,7 @@ from ngsolve import CF, x, y
 
 from ..contact_time import contact_time_scale, effective_mass
 from ..protocol import (
+    BodyField,
     ModelState,
     Outputs,
     StepFailed,
@@ -190,6 +191,9 @@ class FemModel:
 
     def outputs(self) -> Outputs:
         return self._outputs
+
+    def fields(self) -> list[BodyField]:
+        return self.measures.fields(self._state)
 
     def get_state(self) -> ModelState:
         s = self._state

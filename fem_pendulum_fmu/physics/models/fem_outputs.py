@@ -15,7 +15,8 @@ from ngsolve import BND, VOL, BilinearForm, Cof, Grad, Id, InnerProduct, Integra
 
 from .. import contact as wall_contact
 from .. import material
-from ..protocol import Outputs
+from ..fields import VertexSampler, body_field
+from ..protocol import BodyField, Outputs
 from .fem_head import HeadBoundary
 from .fem_schemes import StepInputs
 from .fem_space import FemSpace, FemState
@@ -47,6 +48,7 @@ class FemOutputs:
         self.total_mass = Integrate(rho * h, mesh, definedon=mesh.Materials("pendulum"))
         self.com_depth = -Integrate(rho * h * y, mesh, definedon=mesh.Materials("pendulum")) / self.total_mass
         self._build_fields(space, inputs)
+        self._samplers: list[tuple[VertexSampler, ngs.CoefficientFunction]] | None = None  # built by fields()
 
     def _build_fields(self, space: FemSpace, inputs: StepInputs) -> None:
         """Coefficient functions of the evaluation fields gf_u (configuration) and gf_v."""
@@ -149,6 +151,22 @@ class FemOutputs:
         head = mesh.Boundaries("head")
         force = Integrate(self._dg_force_cf, mesh, BND, order=space.contact_order, definedon=head)
         return dt * np.array(force)
+
+    def fields(self, s: FemState) -> list[BodyField]:
+        """Nodal displacement, velocity and von Mises stress of a state, the pendulum first (then the meshed wall)."""
+        space = self._space
+        if self._samplers is None:
+            F = material.deformation_gradient(space.gf_u)
+            self._samplers = [
+                (VertexSampler(space.mesh, region), material.von_mises_plane_stress(F, *mat.lame))
+                for region, mat in space.bodies
+            ]
+        space.gf_u.vec.FV().NumPy()[:] = s.u
+        space.gf_v.vec.FV().NumPy()[:] = s.v
+        return [
+            body_field(sampler, sampler.values(space.gf_u), sampler.values(space.gf_v), sampler.values(vm))
+            for sampler, vm in self._samplers
+        ]
 
     def of(self, s: FemState, t: float, substeps: int, light: bool = False) -> Outputs:
         """All outputs of a state; light: the energies only (for the energy guard)."""

@@ -36,12 +36,14 @@ import numpy as np
 from .. import rigid_contact
 from ..contact_time import ClosestPoint, contact_time_scale, effective_mass
 from ..modes import ModalBasis, modal_basis
-from ..protocol import ModelState, Outputs, last_advance_scalars, restore_last_advance, restored_min_gap
+from ..protocol import BodyField, ModelState, Outputs, last_advance_scalars, restore_last_advance, restored_min_gap
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
 
 if TYPE_CHECKING:
     from ngsolve import CoefficientFunction, GridFunction
+
+    from ..fields import VertexSampler
 
 NEWTON_MAX_IT = 40
 TANGENT_AFTER = 4  # Newton iterations on the linear modal stiffness before the strain's tangent is assembled
@@ -188,6 +190,7 @@ class ReducedModel(SteppedModel[tuple]):
         self._identity = np.eye(self.n)
         # (field, von Mises of it, the elements' integration points), built when first asked for
         self._stress: tuple[GridFunction, CoefficientFunction, Any] | None = None
+        self._sampler: VertexSampler | None = None
         self._strain = LinearStrain(b.omega2) if uses_linear_strain(scene) else NeoHookeanStrain(scene, b.phi, b.omega2)
         z0 = np.zeros(self.n)
         z0[0] = float(scene.theta0)
@@ -508,6 +511,12 @@ class ReducedModel(SteppedModel[tuple]):
 
     def von_mises_max(self, z: np.ndarray) -> float:
         """Largest von Mises stress of the modal displacement field (frame-invariant), on the FE mesh."""
+        gf, cf, points = self._modal_stress()
+        gf.vec.FV().NumPy()[:] = self.basis.phi @ z[1:]
+        return float(np.max(cf(points)))
+
+    def _modal_stress(self) -> tuple[GridFunction, CoefficientFunction, Any]:
+        """(field of the modal displacement, its von Mises stress, the stress's sample points), built once."""
         if self._stress is None:
             import ngsolve as ngs
 
@@ -518,6 +527,25 @@ class ReducedModel(SteppedModel[tuple]):
             gf = ngs.GridFunction(V)
             cf = material.von_mises_plane_stress(material.deformation_gradient(gf), *self.scene.pendulum.lame)
             self._stress = (gf, cf, mesh.MapToAllElements(ngs.IntegrationRule(ngs.TRIG, 4), ngs.VOL))
-        gf, cf, points = self._stress
+        return self._stress
+
+    def fields(self) -> list[BodyField]:
+        """Nodal fields of the modal field: x = R(theta) (X + w), w = phi q on the FE mesh, so the
+        displacement is x - X, the velocity omega J x + R(theta) phi dq/dt (dz/dt = M(q)^-1 p), and
+        the von Mises stress that of w (frame-invariant)."""
+        from ..fields import VertexSampler, body_field
+
+        gf, cf, _ = self._modal_stress()
+        if self._sampler is None:
+            self._sampler = VertexSampler(gf.space.mesh, "pendulum")
+        sampler, (z, _, _) = self._sampler, self._x
+        rate = self._velocity(self._x)
         gf.vec.FV().NumPy()[:] = self.basis.phi @ z[1:]
-        return float(np.max(cf(points)))
+        w, von_mises = sampler.values(gf), sampler.values(cf)
+        gf.vec.FV().NumPy()[:] = self.basis.phi @ rate[1:]
+        w_rate = sampler.values(gf)
+        c, s = math.cos(z[0]), math.sin(z[0])
+        rot = np.array([[c, -s], [s, c]])
+        x = (sampler.points + w) @ rot.T
+        velocity = rate[0] * (x @ _J.T) + w_rate @ rot.T
+        return [body_field(sampler, x - sampler.points, velocity, von_mises)]

@@ -20,15 +20,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .. import rigid_contact
 from ..contact_time import effective_mass
 from ..mass_properties import gravity_moment, mass_properties
-from ..protocol import ModelState, Outputs, last_advance_scalars, restore_last_advance, restored_min_gap
+from ..protocol import BodyField, ModelState, Outputs, last_advance_scalars, restore_last_advance, restored_min_gap
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
+
+if TYPE_CHECKING:
+    from ..fields import VertexSampler
 
 NEWTON_MAX_IT = 80
 ENERGY_ROUNDOFF = 1e-15  # relative energy imbalance per step accepted as converged
@@ -77,6 +81,7 @@ class RigidModel(SteppedModel[tuple]):
         self.control = StepControl.for_scene(scene)
         self._memo: dict[float, tuple] = {}  # pure functions of the angle, so caching keeps runs deterministic
         self._gap_memo: dict[float, tuple[float, float]] = {}
+        self._sampler: VertexSampler | None = None  # the mesh's vertices, for fields()
         self.time = 0.0
         self._x = self.state(scene.theta0, scene.omega0)
         self.last_min_gap = math.inf
@@ -305,6 +310,19 @@ class RigidModel(SteppedModel[tuple]):
         self._outputs = self._compute_outputs(x, self.time, int(sc.get("substeps", 0)))
         self.last_min_gap = self._outputs.min_gap = restored_min_gap(state, self._outputs)
         restore_last_advance(state, self._outputs)
+
+    def fields(self) -> list[BodyField]:
+        """Nodal fields of the rigid motion on the FE model's mesh of the pendulum: displacement and
+        velocity of the rotation by theta at omega about the pivot; no stress (a rigid body)."""
+        from ..fields import VertexSampler, body_field, rigid_motion
+        from ..geometry import make_mesh
+
+        if self._sampler is None:
+            geo, settings = self.scene.geometry, self.scene.model
+            self._sampler = VertexSampler(make_mesh(geo, settings.mesh_size, settings.order), "pendulum")
+        q, w, _ = self._x
+        displacement, velocity = rigid_motion(self._sampler.points, q, w)
+        return [body_field(self._sampler, displacement, velocity, np.zeros(len(self._sampler.points)))]
 
     # -------------------------------------------------------------- outputs
     def _compute_outputs(self, x: tuple, t: float, substeps: int) -> Outputs:
