@@ -38,7 +38,7 @@ from ..protocol import (
 from ..scene import Scene, validate
 from ..stepping import StepControl
 from .fem_head import HeadBoundary
-from .fem_newton import HeldJacobianNewton, JacobianPoint
+from .fem_newton import HeldJacobianNewton, JacobianPoint, Turn
 from .fem_outputs import FemOutputs
 from .fem_schemes import scheme_for, step_inputs
 from .fem_space import FemState, fem_space
@@ -63,8 +63,9 @@ class FemModel:
         self.inputs = step_inputs(self.space)
         self.form = self.scheme.build(self.space, self.inputs)
         self.head = HeadBoundary(self.space)
-        self.newton = HeldJacobianNewton(self.form.form, self.space, self._load, self.head.active_elements)
         self.measures = FemOutputs(self.space, self.inputs, self.head)
+        turn = Turn(self.space, self.measures.rotation_angle)
+        self.newton = HeldJacobianNewton(self.form.form, self.space, self._load, self.head.active_elements, turn)
         self.time = 0.0
         self._state = self.scheme.start(self, self._initial_state())
         self._outputs = self.measures.of(self._state, 0.0, 0)

@@ -96,13 +96,15 @@ class FemOutputs:
         self._space.gf_u.vec.FV().NumPy()[:] = u
         return float(np.min(self._det_F_cf(self._volume_points)))
 
+    def rotation_angle(self, u: np.ndarray) -> float:
+        """Best-fit rigid rotation of the displacement u about the pivot (rad)."""
+        return math.atan2(float(self.l_rot @ u), self.inertia0 + float(self.l_pos @ u))
+
     def _rotation(self, u: np.ndarray, v: np.ndarray) -> tuple[float, float]:
         """Best-fit rigid rotation of the displacement, and angular velocity about the pivot
         (u and v loaded in the evaluation fields)."""
         space = self._space
-        s_num = float(self.l_rot @ u)
-        c_num = self.inertia0 + float(self.l_pos @ u)
-        theta = math.atan2(s_num, c_num)
+        theta = self.rotation_angle(u)
         Cv = (self.cross * space.gf_v.vec).Evaluate().FV().NumPy()
         Mu = (self.mass_p * space.gf_u.vec).Evaluate().FV().NumPy()
         ang_mom = float(self.l_rot @ v) - float(u @ Cv)  # u @ (cross v) = -int rho h (u x v): rows are test functions
