@@ -21,6 +21,10 @@ from .fem_head import HeadBoundary
 from .fem_schemes import StepInputs
 from .fem_space import FemSpace, FemState
 
+# The head's sample points are the Gauss points of the contact integrals' rule (fem_head.py): when the
+# closest is farther from the block than this (1 nm, far above round-off), every penalty integrand is 0
+CLEAR_OF_BLOCK = 1e-9
+
 
 class FemOutputs:
     """Outputs of FE states (with the mass measures of the pendulum as meshed)."""
@@ -111,13 +115,13 @@ class FemOutputs:
         inertia = self.inertia0 + 2.0 * float(self.l_pos @ u) + float(u @ Mu)
         return theta, ang_mom / inertia
 
-    def _contact(self, u: np.ndarray, light: bool) -> tuple[float, float]:
+    def _contact(self, s: FemState, light: bool) -> tuple[float, float]:
         """(contact energy, contact force); light: the energy only (force 0) for the rigid wall."""
-        space, c_force = self._space, 0.0
+        space, c_force, u = self._space, 0.0, s.u
         if space.wall_contact_on:
             return self._head.meshed_wall_contact(u)
-        if not space.contact_on:
-            return 0.0, c_force
+        if not space.contact_on or self._head.closest_point(s).gap > CLEAR_OF_BLOCK:
+            return 0.0, c_force  # no rule point in the block: the integrals are exactly zero
         mesh, order = space.mesh, space.contact_order
         head = mesh.Boundaries("head")
         c_energy = float(Integrate(self._contact_energy_cf, mesh, BND, order=order, definedon=head))
@@ -186,7 +190,7 @@ class FemOutputs:
             float(Integrate(cf, mesh, order=2 * space.scene.model.order, definedon=mesh.Materials(region)))
             for region, cf in self._strain_cf
         )
-        c_energy, c_force = self._contact(u, light)
+        c_energy, c_force = self._contact(s, light)
         gap = self._head.closest_point(s).gap if not light else 0.0
         vm = 0.0
         if space.scene.model.compute_stress and not light:
