@@ -2,6 +2,7 @@
 
     fem-pendulum run [--fmu dist/FemPendulum.fmu] [--torque examples/torque_pulse.csv]
                      [--stop-time 2] [--step 1e-3] [--set model.fidelity=fem ...] [--out out/run]
+                     [--animate out/run.gif [--deformation-scale 1000]]
 
 The torque CSV has columns time,torque; fmpy interpolates linearly, so a step
 needs two rows at the same time. Without --torque the torque is zero.
@@ -96,6 +97,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--step", type=float, default=1e-3, help="communication step (s)")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="start value of a parameter")
     parser.add_argument("--out", type=Path, default=Path("out") / "run", help="prefix of the CSV and PNG written")
+    parser.add_argument(
+        "--animate",
+        type=Path,
+        metavar="PATH",
+        help="also write an animation (.gif; .mp4 with ffmpeg) from the FMU's field output, which goes to "
+        "output.vtk_folder (default: the --out prefix + '_fields')",
+    )
+    parser.add_argument(
+        "--deformation-scale", type=float, default=1.0, help="magnify the elastic deformation in the animation"
+    )
 
 
 def command(args: argparse.Namespace) -> None:
@@ -104,7 +115,10 @@ def command(args: argparse.Namespace) -> None:
     from .plots import impacts, plot_results
 
     torque = read_torque_csv(args.torque) if args.torque else None
-    result = run(args.fmu, torque, args.stop_time, args.step, parse_start_values(args.set))
+    start_values = parse_start_values(args.set)
+    if args.animate and not start_values.get("output.vtk_folder"):
+        start_values["output.vtk_folder"] = str(args.out.parent / f"{args.out.name}_fields")
+    result = run(args.fmu, torque, args.stop_time, args.step, start_values)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     csv = args.out.with_suffix(".csv")
     write_csv(str(csv), result)
@@ -117,6 +131,14 @@ def command(args: argparse.Namespace) -> None:
         f"wrote {csv} and {png}; {impacts(result)} impacts, min gap {gap.min():.3e} m, "
         f"max contact force {force.max():.1f} N, max |E - E0 - W| {np.abs(err).max():.2e} J"
     )
+    if args.animate:
+        from ..fmi.vtk_output import INDEX_NAME
+        from .animation import animate
+
+        frames = animate(
+            Path(str(start_values["output.vtk_folder"])) / INDEX_NAME, args.animate, args.deformation_scale
+        )
+        print(f"wrote {args.animate}: {frames} frames of the field output in {start_values['output.vtk_folder']}")
 
 
 def main(argv: list[str] | None = None) -> None:
