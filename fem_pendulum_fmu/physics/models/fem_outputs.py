@@ -61,25 +61,26 @@ class FemOutputs:
         # work of a unit torque's follower load at the configuration gf_u over the displacement gf_v
         N = ngs.specialcf.normal(2)
         unit_load = inputs.torque_scale * inputs.torque_weight * (Cof(Id(2) + Grad(gf_u).Trace()) * N)
-        self._unit_torque_work_cf = InnerProduct(unit_load, space.gf_v)
+        # compiled (.Compile()): the integrals of the outputs cost a quarter as interpreted trees
+        self._unit_torque_work_cf = InnerProduct(unit_load, space.gf_v).Compile()
         F = material.deformation_gradient(gf_u)
         C = material.right_cauchy_green(F)
-        self._strain_cf = [(r, h * material.energy_density(C, *mat.lame)) for r, mat in space.bodies]
+        self._strain_cf = [(r, (h * material.energy_density(C, *mat.lame)).Compile()) for r, mat in space.bodies]
         self._von_mises_cf = material.von_mises_plane_stress(F, *sc.pendulum.lame)
         # det F at the volume integration points of the forms (psi depends on det C = det F^2 only,
         # so an inverted element has finite energy and Newton can converge to it: checked per step)
-        self._det_F_cf = ngs.Det(F)
+        self._det_F_cf = ngs.Det(F).Compile()
         self._volume_points = space.mesh.MapToAllElements(IntegrationRule(ngs.TRIG, 2 * sc.model.order), VOL)
         if space.contact_on:
             k = sc.contact.stiffness
             d, grad = wall_contact.depth_and_gradient(space.pos + gf_u, sc.block)
-            self._contact_energy_cf = h * wall_contact.penalty_energy(d, k)
-            self._contact_force_cf = h * ngs.IfPos(d, k * d, 0.0) * (-grad)
+            self._contact_energy_cf = (h * wall_contact.penalty_energy(d, k)).Compile()
+            self._contact_force_cf = (h * ngs.IfPos(d, k * d, 0.0) * (-grad)).Compile()
             # the energy-momentum form's contact term of a step from gf_u0 to gf_u (fem_schemes.py)
             self._gf_u0 = ngs.GridFunction(space.V)
-            self._dg_force_cf = h * wall_contact.discrete_gradient_force(
-                space.pos + self._gf_u0, space.pos + gf_u, sc.block, k
-            )
+            self._dg_force_cf = (
+                h * wall_contact.discrete_gradient_force(space.pos + self._gf_u0, space.pos + gf_u, sc.block, k)
+            ).Compile()
 
     def torque_work_increment(self, u0: np.ndarray, u1: np.ndarray, torque: float) -> float:
         """Work of the follower load at the midpoint configuration over the step."""
