@@ -1,6 +1,8 @@
 """The FE model's sample points on the head's outer boundary.
 
-Positions X + u are evaluated there vectorised (numpy) for what the step
+Positions X + u are evaluated there vectorised (numpy: a sparse matrix maps
+the displacement dofs to the points, and the last two displacements' distances
+to the block are kept, as every step asks for them twice) for what the step
 control and the contact set need: the gap and its rate at the closest point,
 which head elements can reach the block within a step (contact is assembled on
 those only), and, for the meshed wall, the contact energy against its deformed
@@ -11,11 +13,28 @@ from __future__ import annotations
 
 import ngsolve as ngs
 import numpy as np
+import scipy.sparse
 
 from .. import contact as wall_contact
 from ..contact_time import ClosestPoint
 from ..fe_boundary import head_points
 from .fem_space import FemSpace, FemState
+
+
+def trace_matrix(space: FemSpace, points: ngs.comp.MeshPoints, elements: np.ndarray) -> scipy.sparse.csr_matrix:
+    """The (2P x nV) matrix E with E @ u = (x components, y components) of the displacement u at the P
+    points on the head elements: columns only for the dofs of those elements, the others vanish there."""
+    gf = ngs.GridFunction(space.V)
+    vec = gf.vec.FV().NumPy()
+    dofs = sorted({d for e in elements for d in space.V.GetDofNrs(ngs.ElementId(ngs.BND, int(e))) if d >= 0})
+    columns = []
+    for d in dofs:
+        vec[:] = 0.0
+        vec[d] = 1.0
+        columns.append(np.asarray(gf(points)).T.ravel())
+    dense = np.array(columns).T
+    rows, cols = np.nonzero(dense)
+    return scipy.sparse.csr_matrix((dense[rows, cols], (rows, np.array(dofs)[cols])), shape=(dense.shape[0], space.nV))
 
 
 class HeadBoundary:
@@ -33,22 +52,35 @@ class HeadBoundary:
         self._closest: tuple[FemState, ClosestPoint] | None = (
             None  # (state, closest point) of the last state asked about
         )
+        self._trace = trace_matrix(space, head.points, head.elements)
+        # (u, positions, signed distances to the undeformed block, normals) of the last two u asked about
+        self._distances: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
 
     def positions(self, u: np.ndarray) -> np.ndarray:
-        gf_u = self._space.gf_u
-        gf_u.vec.FV().NumPy()[:] = u
-        return self.X + gf_u(self.points)
+        return self.X + self.values(u)
+
+    def values(self, w: np.ndarray) -> np.ndarray:
+        """A displacement (or velocity) field's values at the points, (P, 2)."""
+        return (self._trace @ w).reshape(2, -1).T
+
+    def distances(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Positions of the points at displacement u, their signed distances to the undeformed block and
+        its normals there. The arrays of a state are never changed in place, so u is known by identity."""
+        for known in self._distances:
+            if known[0] is u:
+                return known[1:]
+        p = self.positions(u)
+        dist, nx, ny = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
+        self._distances = [(u, p, dist, nx, ny), *self._distances[:1]]
+        return p, dist, nx, ny
 
     def active_elements(self) -> np.ndarray:
         return np.array(sorted(self.active_local), dtype=int)
 
     def reachable(self, xs: FemState, dt: float) -> np.ndarray:
         """Head elements (local indices) whose points could reach the block during a step of dt from xs."""
-        p = self.positions(xs.u)
-        dist, _, _ = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
-        gf_v = self._space.gf_v
-        gf_v.vec.FV().NumPy()[:] = xs.v
-        speed = np.hypot(*gf_v(self.points).T)
+        dist = self.distances(xs.u)[1]
+        speed = np.hypot(*self.values(xs.v).T)
         reach = 3.0 * float(np.max(speed)) * dt + 1e-4
         return np.unique(self.point_element[dist < reach])
 
@@ -61,8 +93,7 @@ class HeadBoundary:
 
     def covers(self, bits: ngs.BitArray, u1: np.ndarray) -> bool:
         """True if every head point inside the block at the step's end was in the active set; else widen it."""
-        p = self.positions(u1)
-        dist, _, _ = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
+        dist = self.distances(u1)[1]
         touching = set(int(i) for i in np.unique(self.point_element[dist < 0.0]))
         missing = touching - self.active_local
         if not missing:
@@ -70,11 +101,12 @@ class HeadBoundary:
         self.activate(bits, np.array(sorted(self.active_local | missing), dtype=int))
         return False
 
-    def wall_face_shift(self, p: np.ndarray) -> np.ndarray:
-        """Displacement of the deformable wall at the face points level with head points (zero if rigid)."""
+    def wall_face_shift(self, p: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Displacement u of the deformable wall at the face points level with head points (zero if rigid)."""
         shift = np.zeros_like(p)
         if not self._space.deformable_wall:
             return shift
+        self._space.gf_u.vec.FV().NumPy()[:] = u
         b = self._space.scene.block
         near = (p[:, 0] < b.x_max + 0.01) & (p[:, 1] > b.y_min) & (p[:, 1] < b.y_max)
         if np.any(near):
@@ -86,7 +118,7 @@ class HeadBoundary:
     def meshed_wall_contact(self, u: np.ndarray) -> tuple[float, float]:
         """Contact energy and force against the deformed wall face, integrated on the head points."""
         p = self.positions(u)
-        shift = self.wall_face_shift(p)
+        shift = self.wall_face_shift(p, u)
         sc = self._space.scene
         b, h, k = sc.block, sc.pendulum.thickness, sc.contact.stiffness
         level = (p[:, 1] > b.y_min) & (p[:, 1] < b.y_max)
@@ -100,14 +132,14 @@ class HeadBoundary:
         state; the last answer is kept so the boundary is evaluated once."""
         if self._closest is not None and self._closest[0] is xs:
             return self._closest[1]
-        p = self.positions(xs.u)
         if self._space.deformable_wall:
-            p = p - self.wall_face_shift(p)
-        dist, nx, ny = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
+            p = self.positions(xs.u)
+            p = p - self.wall_face_shift(p, xs.u)
+            dist, nx, ny = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
+        else:
+            p, dist, nx, ny = self.distances(xs.u)
         i = int(np.argmin(dist))
-        gf_v = self._space.gf_v
-        gf_v.vec.FV().NumPy()[:] = xs.v
-        vel = gf_v(self.points)[i]
+        vel = self.values(xs.v)[i]
         result = ClosestPoint(p, dist, i, (float(nx[i]), float(ny[i])), float(nx[i] * vel[0] + ny[i] * vel[1]))
         self._closest = (xs, result)
         return result
