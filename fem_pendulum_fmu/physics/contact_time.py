@@ -79,6 +79,9 @@ def contact_time_scale(
         hi *= 2.0
         if hi > 1.0:
             return math.inf, 0.0
+    # the bisection stays below hi: points farther behind add nothing (40 sums over the few that count)
+    near = rel < hi
+    rel, weights = rel[near], weights[near]
     for _ in range(40):
         mid = 0.5 * (lo + hi)
         if energy(mid) < e_avail:
