@@ -113,7 +113,7 @@ class FemModel:
         v1 = 2.0 / dt * (u1 - xs.u) - xs.v
         a1 = self.scheme.end_acceleration(xs, v1, dt)
         work = self.measures.torque_work_increment(xs.u, u1, torque)
-        x1 = FemState(u1, v1, self.newton.multipliers(), xs.torque_work + work, a1, dv_dt=(v1 - xs.v) / dt)
+        x1 = FemState(u1, v1, self.newton.multipliers(), xs.torque_work + work, a1)
         if self.scheme.energy_guard:
             (e0, m0), (e1, m1) = self._energy_of(xs), self._energy_of(x1)
             if abs(e1 - e0 - work) > STEP_ENERGY_TOLERANCE * (max(m0, m1) + abs(work)):
@@ -207,8 +207,6 @@ class FemModel:
         arrays = {"u": s.u.copy(), "v": s.v.copy(), "lam": s.lam.copy()}
         if s.a is not None:
             arrays["a"] = s.a.copy()
-        if s.dv_dt is not None:
-            arrays["dv_dt"] = s.dv_dt.copy()
         if self.newton.held is not None:
             jp = self.newton.held
             scalars.update(jac_dt=jp.dt, jac_torque=jp.torque)
@@ -228,8 +226,6 @@ class FemModel:
         self._state = FemState(
             arr["u"].copy(), arr["v"].copy(), arr["lam"].copy(), sc["torque_work"], arr["a"].copy() if newmark else None
         )
-        if "dv_dt" in arr:
-            self._state.dv_dt = arr["dv_dt"].copy()
         self.newton.held = None
         if "jac_w" in arr:
             self.newton.held = JacobianPoint(

@@ -28,8 +28,6 @@ class FemState:
     torque_work: float
     a: np.ndarray | None = None  # acceleration, carried by the Newmark schemes only
     energy: tuple[float, float] | None = None  # (total, in motion), computed when the energy guard asks
-    # (v - v_before) / dt of the step that ended here: the next step's Newton predictor adds dt^2/2 of it
-    dv_dt: np.ndarray | None = None
 
 
 @dataclass
