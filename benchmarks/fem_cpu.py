@@ -1,0 +1,79 @@
+"""CPU time per simulated second of the default fem fidelity on the steel scene, 1 ms communication steps.
+
+    python benchmarks/fem_cpu.py [--t-end 1.0] [--repeat 3] [--preset stiff|compliant] [--profile N]
+
+The steel scene (stiff(): rigid wall, released at 20 degrees, no torque; or the
+rubber one, compliant(), order 3) on the default mesh, advanced in 1 ms communication steps as an FMU master drives it
+(outputs computed at every step), timed with time.process_time (CPU time of
+this process, less disturbed than wall time by other jobs on a shared
+machine); prints the best of `repeat` runs, the wall time of that run, the
+load average, the internal steps, and the accuracy figures (theta at the end,
+the largest energy error over the swing energy) so that a faster run can be
+checked to be the same run. With --profile N it runs once under cProfile and
+prints the N entries with the most internal time (the profile of docs/fem.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import os
+import pstats
+import time
+
+import numpy as np
+
+from fem_pendulum_fmu.physics.mass_properties import swing_energy
+from fem_pendulum_fmu.physics.models.fem import FemModel
+from fem_pendulum_fmu.physics.scene import PRESETS
+
+
+def run(t_end: float, preset: str) -> dict[str, float]:
+    """One timed run from a fresh model (set-up not timed)."""
+    model = FemModel(PRESETS[preset]())
+    e0 = model.outputs().total
+    swing = swing_energy(model.scene)
+    steps = round(t_end / 1e-3)
+    e_err, substeps = 0.0, 0
+    c0, w0 = time.process_time(), time.perf_counter()
+    for i in range(1, steps + 1):
+        o = model.advance(i * 1e-3, 0.0)
+        e_err = max(e_err, abs(o.total - o.torque_work - e0))
+        substeps += o.substeps
+    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    return {
+        "cpu_per_sim_s": cpu / t_end,
+        "wall_per_sim_s": wall / t_end,
+        "substeps": substeps,
+        "theta_end": o.theta,
+        "energy_error_rel": e_err / swing,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--t-end", type=float, default=1.0, help="simulated seconds per run")
+    parser.add_argument("--repeat", type=int, default=3, help="runs; the one with the least CPU time is printed")
+    parser.add_argument("--preset", choices=sorted(PRESETS), default="stiff", help="the scene")
+    parser.add_argument("--profile", type=int, default=0, help="run once under cProfile, print this many entries")
+    args = parser.parse_args()
+    if args.profile:
+        profiler = cProfile.Profile()
+        result = profiler.runcall(run, args.t_end, args.preset)
+        pstats.Stats(profiler).sort_stats("tottime").print_stats(args.profile)
+        print(result, "load average", os.getloadavg())
+        return
+    runs = [run(args.t_end, args.preset) for _ in range(args.repeat)]
+    best = min(runs, key=lambda r: r["cpu_per_sim_s"])
+    load = " ".join(f"{v:.2f}" for v in os.getloadavg())
+    cpus = ", ".join(f"{r['cpu_per_sim_s']:.3f}" for r in runs)
+    print(
+        f"cpu {best['cpu_per_sim_s']:.3f} s/sim s (runs: {cpus}), "
+        f"wall {best['wall_per_sim_s']:.3f} s/sim s, load average {load}, {best['substeps']} internal steps, "
+        f"theta(end) {best['theta_end']:.12f} rad, energy error / swing {best['energy_error_rel']:.2e}"
+    )
+    assert np.isfinite(best["theta_end"])
+
+
+if __name__ == "__main__":
+    main()
