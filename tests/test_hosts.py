@@ -90,13 +90,21 @@ def fmpy_only_environment(folder: Path) -> Path:
             text=True,
         ).stdout.strip()
     )
-    seen, todo = set(), ["fmpy"]
+    seen, todo = set(), [("fmpy", "")]
     while todo:
-        dist = importlib.metadata.distribution(todo.pop().replace("-", "_"))
+        name, marker = todo.pop()
+        try:
+            dist = importlib.metadata.distribution(name.replace("-", "_"))
+        except importlib.metadata.PackageNotFoundError:
+            assert marker, f"{name}, which fmpy needs, is not installed here"
+            continue  # a requirement for another platform (e.g. pywin32)
         if dist.metadata["Name"].lower() in seen:
             continue
         seen.add(dist.metadata["Name"].lower())
-        todo += [re.match(r"[A-Za-z0-9_.\-]+", r).group(0) for r in dist.requires or [] if "extra ==" not in r]
+        for requirement in dist.requires or []:
+            if "extra ==" not in requirement:
+                name = re.match(r"[A-Za-z0-9_.\-]+", requirement).group(0)
+                todo.append((name, requirement.partition(";")[2]))
         for file in dist.files or []:
             top = file.parts[0]
             source, target = Path(dist.locate_file(top)), site / top
