@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import ngsolve as ngs
 import numpy as np
@@ -100,11 +101,16 @@ class HeldJacobianNewton:
         self.w = GridFunction(space.X)
         self._res = self.w.vec.CreateVector()
         self._turned = self.w.vec.CreateVector()
+        self._corr = self.w.vec.CreateVector()
+        # numpy views of the vectors, made once (a view per use cost as much as the turn itself)
+        self._res_np, self._turned_np = self._res.FV().NumPy(), self._turned.FV().NumPy()
+        self._corr_np = self._corr.FV().NumPy()
         self._turn = turn
         self._freedofs = space.X.FreeDofs()
         self._nV = space.nV
         self._load, self._active_now = load, active_now
-        self._inverse = self._inverse_of = None
+        self._inverse: Any = None  # UMFPACK inverse of the held Jacobian (an ngsolve BaseMatrix)
+        self._inverse_of: Any = None  # the matrix it was factorised from
         self._inverse_nze = -1
         self.held: JacobianPoint | None = None
         self.ready = False  # the held Jacobian is assembled and factorised (False after a restore)
@@ -140,7 +146,7 @@ class HeldJacobianNewton:
                 refresh = False
                 turn = 0.0
             self.form.Apply(self.w.vec, res)
-            cv = self._correction(res, turn)
+            cv = self._correction(turn)
             if not np.all(np.isfinite(cv)):
                 return None
             wv -= cv
@@ -151,16 +157,18 @@ class HeldJacobianNewton:
             last = size
         return None
 
-    def _correction(self, res: ngs.BaseVector, turn: float) -> np.ndarray:
-        """The Newton correction Q J^-1 Q^T res of the held Jacobian J turned by `turn` (a new array)."""
+    def _correction(self, turn: float) -> np.ndarray:
+        """The Newton correction Q J^-1 Q^T res of the held Jacobian J turned by `turn`, for the residual
+        in self._res (a view of the solver's correction vector, valid until the next call)."""
+        inverse = self._inverse
         if turn == 0.0:
-            return (self._inverse * res).Evaluate().FV().NumPy().copy()
-        tv = self._turned.FV().NumPy()
-        tv[:] = res.FV().NumPy()
-        self._turn.apply(tv, -turn)
-        cv = (self._inverse * self._turned).Evaluate().FV().NumPy().copy()
-        self._turn.apply(cv, turn)
-        return cv
+            inverse.Mult(self._res, self._corr)
+            return self._corr_np
+        self._turned_np[:] = self._res_np
+        self._turn.apply(self._turned_np, -turn)
+        inverse.Mult(self._turned, self._corr)
+        self._turn.apply(self._corr_np, turn)
+        return self._corr_np
 
     def _factorise(self) -> None:
         """Assemble the Jacobian at the current inputs and w, and factorise it."""
