@@ -128,6 +128,10 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                               fmi2String resourceLocation, const fmi2CallbackFunctions *functions,
                               fmi2Boolean visible, fmi2Boolean loggingOn) {
     char why[4096] = "", resources[4096];
+    if (functions == NULL || functions->logger == NULL) { /* FMI 2.0 requires both; pythonfmu would crash */
+        log_error(NULL, instanceName, "fmi2Instantiate refused: the host passed no callback functions or no logger");
+        return NULL;
+    }
     uri_to_path(resourceLocation ? resourceLocation : "", resources, sizeof resources);
     if (python_prepare(resources, why, sizeof why) != 0 || load_core(why, sizeof why) == NULL) {
         log_error(functions, instanceName, why);
