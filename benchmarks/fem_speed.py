@@ -1,4 +1,4 @@
-"""Wall time per simulated second of the FE model against the seed baseline (issue 2).
+"""Wall time per simulated second of the FE model against the seed baseline.
 
     python benchmarks/fem_speed.py [--seed-steps N] [--no-seed]
 

@@ -1,4 +1,4 @@
-"""Speed and accuracy of every fidelity through the FMU, as a user runs it (issue 4).
+"""Speed and accuracy of every fidelity through the FMU, as a user runs it.
 
     python benchmarks/fidelity_speed.py [--fmu dist/FemPendulum.fmu] [--t-end 2] [--repeat 3]
 

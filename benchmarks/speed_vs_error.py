@@ -1,4 +1,4 @@
-"""Work-precision benchmark: wall time per simulated second against error, for every fidelity (issue 5).
+"""Work-precision benchmark: wall time per simulated second against error, for every fidelity.
 
     python benchmarks/speed_vs_error.py references [--scenes steel ...]   # tight FE runs -> benchmarks/references/
     python benchmarks/speed_vs_error.py sweep [--repeat 3] [--scenes ...] [--curves ...]  # -> benchmarks/results/
@@ -627,7 +627,7 @@ def sweep(args, fmus) -> None:
 
 # Accuracy a fidelity's default settings must reach on the scenes it is meant for (quick mode, tests),
 # in max |theta - theta_ref| before the reference's second impact (early_window: later, the phase of
-# the steel plate's 1 kHz vibration decides, which not even the references agree on): the issue's
+# the steel plate's 1 kHz vibration decides, which not even the references agree on): the
 # target where it is met, else the bound docs/speed_vs_error.md states (measured value + 50 %).
 THETA_TARGET = 1e-3  # rad
 ENERGY_TARGET = 1e-3  # of the swing energy

@@ -1,4 +1,4 @@
-"""What the field output (output.vtk_folder) costs on a fem run through the FMU (issue 14).
+"""What the field output (output.vtk_folder) costs on a fem run through the FMU.
 
     python benchmarks/vtk_output_cost.py [--fmu dist/FemPendulum.fmu] [--stop-time 0.5] [--repeat 3]
 

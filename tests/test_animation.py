@@ -1,4 +1,4 @@
-"""fem-pendulum run --animate (issue 14): an animation made from the FMU's own field output, one
+"""fem-pendulum run --animate: an animation made from the FMU's own field output, one
 frame per output interval, the deformed pendulum coloured by von Mises stress."""
 
 from __future__ import annotations

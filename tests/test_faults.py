@@ -1,4 +1,4 @@
-"""Issue 6: faults a master can meet, through fmpy's FMU2Slave and through the model's Python API.
+"""Faults a master can meet, through fmpy's FMU2Slave and through the model's Python API.
 
 Already covered elsewhere (not repeated here): NaN/inf torque, step <= 0, a jumping communication
 point, a parameter after initialisation, pendulum.nu = 0.5, corrupt state bytes

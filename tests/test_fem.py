@@ -1,7 +1,7 @@
-"""Acceptance tests of the full FE model (issue 2), on the default (coarse) mesh.
+"""Acceptance tests of the full FE model, on the default (coarse) mesh.
 
 Reference numbers are from shared/DESIGN.md section 2. One physical point
-differs from the issue text and is tested as measured: with every energy
+differs from the original expectation and is tested as measured: with every energy
 times the thickness (the plate the seed describes), the steel pendulum's first
 bending mode has a period of about 1 ms, three times the 0.34 ms contact, so
 each impact puts about 6 % of the swing energy into elastic vibration and the

@@ -1,4 +1,4 @@
-"""The contract every fidelity keeps (issue 4): one protocol, bit-identical state round trips,
+"""The contract every fidelity keeps: one protocol, bit-identical state round trips,
 determinism, energy balance under a torque, and bad input refused with the state kept.
 
 Each test runs rigid, reduced and fem on the stiff scene through the first impact

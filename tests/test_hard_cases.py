@@ -1,4 +1,4 @@
-"""Issue 6: hard cases through the FMU, each for every fidelity that applies, with stated bounds.
+"""Hard cases through the FMU, each for every fidelity that applies, with stated bounds.
 
 Every case checks: all outputs finite; the energy error |E - E0 - W| within
 the case's bound (relative to the energy the run moves: the largest kinetic +
@@ -29,7 +29,7 @@ from fem_pendulum_fmu.physics.scene import compliant, stiff
 RIGID_WALL = [f for f in ("rigid", "reduced", "fem") if f in models.AVAILABLE]
 COARSE = {"model.mesh_size": 0.06}  # robustness, not accuracy: the coarsest mesh (docs/fem.md mesh study)
 STALL_GUARD = {"solver.max_substeps": 5000}  # a doStep needing more is discarded, and the run fails
-PENETRATION = 2e-3  # m, issue 6
+PENETRATION = 2e-3  # m, the robustness bound (docs/robustness.md)
 # energy error / energy moved, per fidelity: the rigid model's discrete gradient is exact to round-off;
 # the FE model's to its Newton tolerance and the discrete gradient's Gauss rule (docs/robustness.md)
 ENERGY = {

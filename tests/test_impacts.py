@@ -1,4 +1,4 @@
-"""Impacts visible at any sampling rate (issue 14): contact_force_max and contact_impulse.
+"""Impacts visible at any sampling rate: contact_force_max and contact_impulse.
 
 A steel impact lasts about 0.34 ms, so 1 ms communication steps rarely sample a contact force;
 contact_force_max (the largest force at the internal steps of a doStep) and contact_impulse (the

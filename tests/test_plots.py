@@ -1,5 +1,5 @@
 """The open-loop plot (fem-pendulum run): torque, angle, gap with gap_min, contact force with
-contact_force_max and the energy balance; every impact visible, however short (issue 14)."""
+contact_force_max and the energy balance; every impact visible, however short."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Sweeps on Dask (issue 13): error rows, resume, bit-identical series, a scheduler with two workers.
+"""Sweeps on Dask: error rows, resume, bit-identical series, a scheduler with two workers.
 
 Short by design: rigid fidelity, a 3 x 2 grid, 0.3 s of simulated time with a
 torque pulse (so the torque input's interpolation is part of what must match).

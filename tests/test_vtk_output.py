@@ -1,4 +1,4 @@
-"""Field output (issue 14): output.vtk_folder makes the FMU write a ParaView time series.
+"""Field output: output.vtk_folder makes the FMU write a ParaView time series.
 
 A 0.3 s steel fem run through fmpy (1 ms steps): one frame per output.vtk_interval = 0.01 s (t = 0
 to 0.3 s, through the first impact at 0.24 s), .vtu files meshio opens, and at each frame the
