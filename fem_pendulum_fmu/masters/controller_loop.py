@@ -3,7 +3,7 @@
     fem-pendulum control [--fmu dist/FemPendulum.fmu] [--pid dist/PidController.fmu]
                          [--stop-time 2] [--step 1e-3] [--set NAME=VALUE ...] [--out out/control]
 
-After the syssimx case study: the set-point is a 20-degree sine at 0.75 Hz,
+The set-point is a 20-degree sine at 0.75 Hz,
 PID gains Kp 10, Ki 4, Kd 0.15 with output saturation, and a drive that
 limits the torque to 15 N.m. The wall stands at theta = 0, so every swing to
 negative angles ends on the wall.
