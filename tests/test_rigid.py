@@ -40,6 +40,20 @@ def rigid(**values):
     return create(stiff(model__fidelity="rigid", **values))
 
 
+def row(model, o, e0):
+    """(time, theta, omega, gap, min gap in step, energy balance, contact force, substeps) after a step."""
+    return (
+        o.time,
+        o.theta,
+        o.omega,
+        o.gap,
+        model.last_min_gap,
+        o.total - o.torque_work - e0,
+        o.contact_force,
+        o.substeps,
+    )
+
+
 def run(model, t_end, torque=0.0, dt=DT):
     """Advance in communication steps; rows of (time, theta, omega, gap, min gap in step, energy balance,
     contact force, substeps)."""
@@ -49,18 +63,7 @@ def run(model, t_end, torque=0.0, dt=DT):
     for i in range(1, int(round((t_end - t0) / dt)) + 1):
         tq = torque(t0 + (i - 1) * dt) if callable(torque) else torque
         o = model.advance(t0 + i * dt, tq)
-        rows.append(
-            (
-                o.time,
-                o.theta,
-                o.omega,
-                o.gap,
-                model.last_min_gap,
-                o.total - o.torque_work - e0,
-                o.contact_force,
-                o.substeps,
-            )
-        )
+        rows.append(row(model, o, e0))
     return np.array(rows)
 
 
@@ -98,18 +101,7 @@ def stiff_run():
         if 200 <= i <= 260:
             states[i - 1] = model.get_state()
         o = model.advance(i * DT, 0.0)
-        rows.append(
-            (
-                o.time,
-                o.theta,
-                o.omega,
-                o.gap,
-                model.last_min_gap,
-                o.total - o.torque_work - e0,
-                o.contact_force,
-                o.substeps,
-            )
-        )
+        rows.append(row(model, o, e0))
     return model, np.array(rows), states
 
 
@@ -229,18 +221,7 @@ def test_driven_over_the_top(block, face):
         o = model.advance(i * DT, square_wave((i - 1) * DT))
         assert all(math.isfinite(v) for v in o.as_dict().values())
         kinetic_max = max(kinetic_max, o.kinetic)
-        rows.append(
-            (
-                o.time,
-                o.theta,
-                o.omega,
-                o.gap,
-                model.last_min_gap,
-                o.total - o.torque_work - e0,
-                o.contact_force,
-                o.substeps,
-            )
-        )
+        rows.append(row(model, o, e0))
         if o.gap < 0:
             q = model.get_state().scalars["theta"]
             faces.update(rc.FACES[p.face] for p in rc.inside_pieces(model.arc(q), model.block))

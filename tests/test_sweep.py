@@ -6,6 +6,7 @@ torque pulse (so the torque input's interpolation is part of what must match).
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 import time
@@ -20,6 +21,7 @@ from fmpy import simulate_fmu
 from fem_pendulum_fmu.masters.open_loop import read_torque_csv
 from fem_pendulum_fmu.masters.sweep import driver, store
 from fem_pendulum_fmu.masters.sweep.driver import SweepSettings, run_sweep
+from fem_pendulum_fmu.masters.sweep.figures import Figures
 from fem_pendulum_fmu.masters.sweep.run import LoadedFmu, SampleTask, run_sample
 from fem_pendulum_fmu.masters.sweep.samples import grid, samples, start_values
 
@@ -27,14 +29,7 @@ ROOT = Path(__file__).resolve().parents[1]
 TORQUE = ROOT / "examples" / "torque_pulse.csv"
 STOP = 0.3
 AXES = [("pendulum.E", [-1.0, 1e6, 2.1e11]), ("theta0", [0.2, 0.35]), ("model.fidelity", ["rigid"])]
-FIGURES = [
-    "first_contact_time",
-    "largest_penetration",
-    "first_rebound_peak",
-    "max_contact_force",
-    "energy_error",
-    "rebounds",
-]
+FIGURES = [f.name for f in dataclasses.fields(Figures)]
 
 
 def settings(fmu: Path, out: Path, **kw) -> SweepSettings:

@@ -2,21 +2,16 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-FIGURES = (
-    "first_contact_time",
-    "largest_penetration",
-    "first_rebound_peak",
-    "max_contact_force",
-    "energy_error",
-    "rebounds",
-    "wall_time",
-)
+from .figures import Figures
+
+FIGURES = (*(f.name for f in dataclasses.fields(Figures)), "wall_time")  # what --plot may show
 
 
 def _numeric(column: pd.Series) -> tuple[np.ndarray, list[str] | None]:
