@@ -5,8 +5,8 @@ the displacement dofs to the points, and the last two displacements' distances
 to the block are kept, as every step asks for them twice) for what the step
 control and the contact set need: the gap and its rate at the closest point,
 which head elements can reach the block within a step (contact is assembled on
-those only), and, for the meshed wall, the contact energy against its deformed
-face.
+those only); for the meshed wall the gap is taken to its deformed face
+(fem_wall.py), and `PairGuard` tells when no contact pair can form.
 """
 
 from __future__ import annotations
@@ -19,6 +19,11 @@ from .. import contact as wall_contact
 from ..contact_time import ClosestPoint
 from ..fe_boundary import head_points
 from .fem_space import FemSpace, FemState
+from .fem_wall import WALL_SEARCH_DISTANCE, WallFace
+
+# Head points farther than the pairing radius plus this from the undeformed block pair with no wall point:
+# it covers the wall's displacement (um) and the head curve between its sample points (< 1 um)
+PAIR_MARGIN = 1e-4  # m
 
 
 def trace_matrix(space: FemSpace, points: ngs.comp.MeshPoints, elements: np.ndarray) -> scipy.sparse.csr_matrix:
@@ -53,6 +58,7 @@ class HeadBoundary:
             None  # (state, closest point) of the last state asked about
         )
         self._trace = trace_matrix(space, head.points, head.elements)
+        self._face = WallFace(space) if space.deformable_wall else None
         # (u, positions, signed distances to the undeformed block, normals) of the last two u asked about
         self._distances: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
 
@@ -101,30 +107,6 @@ class HeadBoundary:
         self.activate(bits, np.array(sorted(self.active_local | missing), dtype=int))
         return False
 
-    def wall_face_shift(self, p: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """Displacement u of the deformable wall at the face points level with head points (zero if rigid)."""
-        shift = np.zeros_like(p)
-        if not self._space.deformable_wall:
-            return shift
-        self._space.gf_u.vec.FV().NumPy()[:] = u
-        b = self._space.scene.block
-        near = (p[:, 0] < b.x_max + 0.01) & (p[:, 1] > b.y_min) & (p[:, 1] < b.y_max)
-        if np.any(near):
-            ys = p[near, 1]
-            pts = self._space.mesh(np.full(ys.shape, b.x_max - 1e-9), ys)
-            shift[near] = self._space.gf_u(pts)
-        return shift
-
-    def meshed_wall_contact(self, u: np.ndarray) -> tuple[float, float]:
-        """Contact energy and force against the deformed wall face, integrated on the head points."""
-        p = self.positions(u)
-        shift = self.wall_face_shift(p, u)
-        sc = self._space.scene
-        b, h, k = sc.block, sc.pendulum.thickness, sc.contact.stiffness
-        level = (p[:, 1] > b.y_min) & (p[:, 1] < b.y_max)
-        pen = np.where(level, np.maximum(b.x_max + shift[:, 0] - p[:, 0], 0.0), 0.0)
-        return 0.5 * h * k * float(self.weights @ (pen * pen)), h * k * float(self.weights @ pen)
-
     def closest_point(self, xs: FemState) -> ClosestPoint:
         """The head point closest to the (deformed) wall and its rate.
 
@@ -132,9 +114,9 @@ class HeadBoundary:
         state; the last answer is kept so the boundary is evaluated once."""
         if self._closest is not None and self._closest[0] is xs:
             return self._closest[1]
-        if self._space.deformable_wall:
+        if self._face is not None:
             p = self.positions(xs.u)
-            p = p - self.wall_face_shift(p, xs.u)
+            p = p - self._face.shift(p, xs.u, self._space.scene.block)
             dist, nx, ny = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
         else:
             p, dist, nx, ny = self.distances(xs.u)
@@ -143,3 +125,19 @@ class HeadBoundary:
         result = ClosestPoint(p, dist, i, (float(nx[i]), float(ny[i])), float(nx[i] * vel[0] + ny[i] * vel[1]))
         self._closest = (xs, result)
         return result
+
+
+class PairGuard:
+    """Whether a displacement leaves the head so far from the wall block that no contact pair can form
+    (the step forms' pairs then need no update while they are empty)."""
+
+    def __init__(self, space: FemSpace):
+        head = head_points(space.mesh, space.contact_order)
+        self._X = space.pos(head.points)
+        self._trace = trace_matrix(space, head.points, head.elements)
+        self._block = space.scene.block
+
+    def far(self, u: np.ndarray) -> bool:
+        p = self._X + (self._trace @ u).reshape(2, -1).T
+        dist = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self._block)[0]
+        return bool(np.min(dist) > WALL_SEARCH_DISTANCE + PAIR_MARGIN)

@@ -20,6 +20,7 @@ from ..protocol import BodyField, Outputs
 from .fem_head import HeadBoundary
 from .fem_schemes import StepInputs
 from .fem_space import FemSpace, FemState
+from .fem_wall import CLEAR_OF_FACE, WallContact
 
 # The head's sample points are the Gauss points of the contact integrals' rule (fem_head.py): when the
 # closest is farther from the block than this (1 nm, far above round-off), every penalty integrand is 0
@@ -52,6 +53,7 @@ class FemOutputs:
         self.total_mass = Integrate(rho * h, mesh, definedon=mesh.Materials("pendulum"))
         self.com_depth = -Integrate(rho * h * y, mesh, definedon=mesh.Materials("pendulum")) / self.total_mass
         self._build_fields(space, inputs)
+        self._wall = WallContact(space) if space.wall_contact_on else None
         self._samplers: list[tuple[VertexSampler, ngs.CoefficientFunction]] | None = None  # built by fields()
 
     def _build_fields(self, space: FemSpace, inputs: StepInputs) -> None:
@@ -118,9 +120,9 @@ class FemOutputs:
 
     def _contact(self, s: FemState, light: bool) -> tuple[float, float]:
         """(contact energy, contact force); light: the energy only (force 0) for the rigid wall."""
-        space, c_force, u = self._space, 0.0, s.u
-        if space.wall_contact_on:
-            return self._head.meshed_wall_contact(u)
+        space, c_force = self._space, 0.0
+        if self._wall is not None:
+            return self._wall_contact(s)
         if not space.contact_on or self._head.closest_point(s).gap > CLEAR_OF_BLOCK:
             return 0.0, c_force  # no rule point in the block: the integrals are exactly zero
         mesh, order = space.mesh, space.contact_order
@@ -131,12 +133,20 @@ class FemOutputs:
             c_force = float(math.hypot(fvec[0], fvec[1]))
         return c_energy, c_force
 
+    def _wall_contact(self, s: FemState) -> tuple[float, float]:
+        """(energy, force) against the meshed wall as the step forms count them; zero, without pairing,
+        when the head is clear of the deformed face (every penalty integrand is 0 then)."""
+        assert self._wall is not None
+        if self._head.closest_point(s).gap > CLEAR_OF_FACE:
+            return 0.0, 0.0
+        return self._wall.energy_and_force(s.u)
+
     def contact_force_vector(self, u: np.ndarray) -> np.ndarray:
         """Resultant force of the wall on the pendulum at displacement u (N, vector). The meshed wall
         pushes along its face normal +x, with the magnitude the outputs report."""
         space = self._space
-        if space.wall_contact_on:
-            return np.array([self._head.meshed_wall_contact(u)[1], 0.0])
+        if self._wall is not None:
+            return np.array([self._wall.energy_and_force(u)[1], 0.0])
         if not space.contact_on:
             return np.zeros(2)
         space.gf_u.vec.FV().NumPy()[:] = u
