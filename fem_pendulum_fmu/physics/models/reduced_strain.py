@@ -1,0 +1,146 @@
+"""Strain energy of the reduced fidelity's modal field (models/reduced.py).
+
+Stiff bodies use the quadratic modal energy, soft ones the FE model's Neo-Hookean law integrated
+over the mesh's quadrature points in numpy: the reduced model's hot loop never calls into the FE
+assembly.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from ..scene import Scene
+
+STIFF_WAVE_SPEED2 = 1e5  # m^2/s^2: E / rho above this strains stay ~1e-6 and the energy is quadratic (see below)
+
+
+def uses_linear_strain(scene: Scene) -> bool:
+    """Stiff bodies (steel: strains ~1e-6) use the quadratic modal strain energy: exact to O(strain^3),
+    while evaluating the Neo-Hookean energy there would lose ~4 digits to cancellation
+    (tr C - 2 - 2 ln J is O(strain^2) from O(strain) terms). Soft bodies use the Neo-Hookean energy."""
+    return scene.pendulum.E / scene.pendulum.rho > STIFF_WAVE_SPEED2
+
+
+class LinearStrain:
+    """1/2 sum omega_j^2 q_j^2: linear elasticity in the rotating frame."""
+
+    def __init__(self, omega2: np.ndarray):
+        self.omega2 = omega2
+        self.linear_hessian = np.diag(omega2)
+
+    def energy(self, q: np.ndarray) -> float:
+        return 0.5 * float(self.omega2 @ (q * q))
+
+    def gradient(self, q: np.ndarray) -> np.ndarray:
+        return self.omega2 * q
+
+    def hessian(self, q: np.ndarray) -> np.ndarray:
+        return self.linear_hessian
+
+
+class NeoHookeanStrain:
+    """The FE model's Neo-Hookean energy of the modal displacement field w = phi q, integrated on
+    the FE mesh (rotation-invariant, so the floating frame stays exact at large strains).
+
+    The modes' displacement gradients are sampled once at the mesh's quadrature points; an
+    evaluation is then F = I + G q and the energy law at those points, in numpy: the reduced
+    model's hot loop never calls into the FE assembly."""
+
+    def __init__(self, scene: Scene, phi: np.ndarray, omega2: np.ndarray):
+        import ngsolve as ngs
+
+        from ..modes import fe_space
+
+        mesh, V = fe_space(scene)
+        rule = ngs.IntegrationRule(ngs.TRIG, 2 * scene.model.order)
+        points = mesh.MapToAllElements(rule, ngs.VOL)
+        jac_det = ngs.Det(ngs.specialcf.JacobianMatrix(2))(points).ravel()
+        self._weights = scene.pendulum.thickness * np.abs(jac_det) * np.tile([ip.weight for ip in rule], mesh.ne)
+        gf = ngs.GridFunction(V)
+        grad = ngs.Grad(gf)
+        G = np.empty((len(self._weights), 4, phi.shape[1]))  # rows d wx/dx, d wx/dy, d wy/dx, d wy/dy
+        for j in range(phi.shape[1]):
+            gf.vec.FV().NumPy()[:] = phi[:, j]
+            G[..., j] = np.asarray(grad(points)).reshape(-1, 4)
+        self._G = G.reshape(-1, phi.shape[1])
+        self._lam, self._mu = scene.pendulum.lame
+        self._mu_gram = self._mu * (self._G.T @ (np.repeat(self._weights, 4)[:, None] * self._G))
+        self.linear_hessian = np.diag(omega2)  # the tangent at q = 0
+
+    @property
+    def weights(self) -> np.ndarray:
+        """(P,) the quadrature weights (area times thickness)."""
+        return self._weights
+
+    def restricted(self, points: np.ndarray, weights: np.ndarray) -> NeoHookeanStrain:
+        """The same energy integrated over a subset of the points with new weights (reduced_ecsw.py)."""
+        other = copy.copy(self)
+        G = self._G.reshape(len(self._weights), 4, -1)[points]
+        other._G = G.reshape(-1, G.shape[-1])
+        other._weights = np.asarray(weights, dtype=float)
+        other._mu_gram = self._mu * (other._G.T @ (np.repeat(other._weights, 4)[:, None] * other._G))
+        return other
+
+    def jacobians(self, q: np.ndarray) -> np.ndarray:
+        """det F at every point."""
+        return self._kinematics(q)[1]
+
+    def point_terms(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """((P, m) each point's weighted contribution to the gradient, (P,) and to the energy)."""
+        F, J = self._kinematics(q)
+        inv, log_j = self._inverse_and_log(F, J)
+        inv_t = inv.transpose(0, 2, 1)
+        P = self._mu * (F - inv_t) + (self._lam * log_j)[:, None, None] * inv_t
+        n = len(J)
+        forces = np.matmul((self._weights[:, None] * P.reshape(n, 4))[:, None, :], self._G.reshape(n, 4, -1))
+        density = 0.5 * self._mu * (np.einsum("pij,pij->p", F, F) - 2.0 - 2.0 * log_j) + 0.5 * self._lam * log_j**2
+        return forces.reshape(n, -1), self._weights * density
+
+    def _kinematics(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        F = (self._G @ q).reshape(-1, 2, 2)
+        F[:, 0, 0] += 1.0
+        F[:, 1, 1] += 1.0
+        J = F[:, 0, 0] * F[:, 1, 1] - F[:, 0, 1] * F[:, 1, 0]
+        return F, J
+
+    def energy(self, q: np.ndarray) -> float:
+        F, J = self._kinematics(q)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            log_j = np.log(J)  # nan for an inverted point: the step fails and is retried smaller
+        density = 0.5 * self._mu * (np.einsum("pij,pij->p", F, F) - 2.0 - 2.0 * log_j) + 0.5 * self._lam * log_j * log_j
+        return float(self._weights @ density)
+
+    @staticmethod
+    def _inverse_and_log(F: np.ndarray, J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """F^-1 and ln J at every point (nan where an element is inverted)."""
+        inv = np.empty_like(F)
+        inv[:, 0, 0], inv[:, 0, 1] = F[:, 1, 1], -F[:, 0, 1]
+        inv[:, 1, 0], inv[:, 1, 1] = -F[:, 1, 0], F[:, 0, 0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            inv /= J[:, None, None]
+            return inv, np.log(J)
+
+    def gradient(self, q: np.ndarray) -> np.ndarray:
+        F, J = self._kinematics(q)
+        inv, log_j = self._inverse_and_log(F, J)
+        inv_t = inv.transpose(0, 2, 1)
+        P = self._mu * (F - inv_t) + (self._lam * log_j)[:, None, None] * inv_t  # first Piola-Kirchhoff
+        return ((self._weights[:, None, None] * P).reshape(-1)) @ self._G
+
+    def hessian(self, q: np.ndarray) -> np.ndarray:
+        """Exact tangent sum_p w_p G_p^T A_p G_p, with the Neo-Hookean elasticity tensor
+        A_iJkL = mu d_ik d_JL + (mu - lam ln J) H_iL H_kJ + lam H_iJ H_kL (H = F^-T), as three
+        matrix products over all points (no 4x4 tensor per point):
+        mu G^T W G (constant), sum (w beta) X_LJ X_JL with X_LJ = sum_i H_iL G_iJ, and lam V^T W V
+        with V = h . G (h = H flattened like G's rows)."""
+        F, J = self._kinematics(q)
+        inv, log_j = self._inverse_and_log(F, J)
+        n, m = len(J), self._G.shape[1]
+        G = self._G.reshape(n, 2, 2 * m)  # [i, (J, mode)]
+        X = np.matmul(inv, G).reshape(n, 2, 2, m)  # inv[L, i] = H_iL: X[L, J, mode]
+        beta = self._weights * (self._mu - self._lam * log_j)
+        swapped = (beta[:, None, None, None] * X.transpose(0, 2, 1, 3)).reshape(-1, m)
+        V = np.matmul(inv.transpose(0, 2, 1).reshape(n, 1, 4), self._G.reshape(n, 4, m)).reshape(n, m)
+        return self._mu_gram + X.reshape(-1, m).T @ swapped + self._lam * (V.T @ (self._weights[:, None] * V))
