@@ -19,10 +19,10 @@ from .. import contact as wall_contact
 from ..contact_time import ClosestPoint
 from ..fe_boundary import head_points
 from .fem_space import FemSpace, FemState
-from .fem_wall import WALL_SEARCH_DISTANCE, WallFace
+from .fem_wall import WallFace
 
-# Head points farther than the pairing radius plus this from the undeformed block pair with no wall point:
-# it covers the wall's displacement (um) and the head curve between its sample points (< 1 um)
+# added to the reach of a step (PairGuard): it covers the wall face's displacement (um) and the head curve
+# between its sample points (< 1 um)
 PAIR_MARGIN = 1e-4  # m
 
 
@@ -128,16 +128,19 @@ class HeadBoundary:
 
 
 class PairGuard:
-    """Whether a displacement leaves the head so far from the wall block that no contact pair can form
-    (the step forms' pairs then need no update while they are empty)."""
+    """Whether the head is too far from the wall block to touch it within the step being loaded: farther
+    in x from the face than 3 times the fastest point's speed times the step (as for the rigid wall's
+    contact set) plus PAIR_MARGIN. The step forms' pairs are then not needed (their force is zero)."""
 
-    def __init__(self, space: FemSpace):
+    def __init__(self, space: FemSpace, v0: ngs.GridFunction, dt: ngs.Parameter):
         head = head_points(space.mesh, space.contact_order)
-        self._X = space.pos(head.points)
-        self._trace = trace_matrix(space, head.points, head.elements)
-        self._block = space.scene.block
+        self._x = space.pos(head.points)[:, 0]
+        self._trace_x = trace_matrix(space, head.points, head.elements)[: len(self._x)]
+        self._face_x = space.scene.block.x_max
+        self._v0, self._dt = v0, dt
 
-    def far(self, u: np.ndarray) -> bool:
-        p = self._X + (self._trace @ u).reshape(2, -1).T
-        dist = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self._block)[0]
-        return bool(np.min(dist) > WALL_SEARCH_DISTANCE + PAIR_MARGIN)
+    def far(self, u0: np.ndarray) -> bool:
+        """At the step start u0 (the step's v0 and dt as loaded); the x distance bounds the distance."""
+        gap_x = float(np.min(self._x + self._trace_x @ u0)) - self._face_x
+        reach = 3.0 * float(np.max(np.abs(self._v0.vec.FV().NumPy()))) * self._dt.Get() + PAIR_MARGIN
+        return gap_x > reach

@@ -47,7 +47,14 @@ from ..fe_boundary import hinge_torque_load
 from ..scene import Material, Scene
 from .fem_head import PairGuard
 from .fem_space import FemSpace, FemState
-from .fem_wall import WALL_CONTACT_INTORDER, WALL_SEARCH_DISTANCE, contact_boundary, discrete_gradient_contact
+from .fem_wall import (
+    NO_PAIRS,
+    WALL_CONTACT_INTORDER,
+    WALL_SEARCH_DISTANCE,
+    WallResidual,
+    contact_boundary,
+    discrete_gradient_contact,
+)
 
 if TYPE_CHECKING:
     from .fem import FemModel
@@ -85,21 +92,24 @@ class StepForm:
     form: BilinearForm
     active: ngs.BitArray | None  # head elements with rigid-wall contact assembled (None: no such contact)
     wall_contact: ngs.ContactBoundary | None  # ContactBoundary of the meshed wall (None: not meshed, or k = 0)
-
     pair_guard: PairGuard | None = None  # with wall_contact: whether the head is out of the pairs' reach
     pairs_empty: bool = True  # the form holds no contact pairs
+    wall_residual: WallResidual | None = None  # the wall contact alone, paired with the form (for split)
 
     def update_wall_pairs(self, u0: GridFunction) -> None:
-        """Pair the meshed wall's face with the head at the displacement u0 (nothing without that wall).
-        With the head out of reach there are no pairs: an update that would leave none is skipped (each
-        cost 0.4 ms, and made the Newton Jacobian's next factorisation a full one)."""
+        """Pair the meshed wall's face with the head at the displacement u0 (nothing without that wall);
+        none while the head cannot reach the wall within the step (PairGuard), where an update that would
+        leave none is skipped (an update cost 1 ms, and its new pairs a full factorisation)."""
         if self.wall_contact is None:
             return
         far = self.pair_guard is not None and self.pair_guard.far(u0.vec.FV().NumPy())
         if far and self.pairs_empty:
             return
-        self.wall_contact.Update(u0, self.form, intorder=WALL_CONTACT_INTORDER, maxdist=WALL_SEARCH_DISTANCE)
+        maxdist = NO_PAIRS if far else WALL_SEARCH_DISTANCE
+        self.wall_contact.Update(u0, self.form, intorder=WALL_CONTACT_INTORDER, maxdist=maxdist)
         self.pairs_empty = far
+        if self.wall_residual is not None:
+            self.wall_residual.update(u0, maxdist)
 
 
 # ------------------------------------------------------------------ pieces both forms are made of
@@ -209,7 +219,7 @@ def energy_momentum_form(space: FemSpace, inputs: StepInputs) -> StepForm:
     wall = None
     if space.wall_contact_on:
         wall = discrete_gradient_contact(space, u0, u, du)
-    return StepForm(form, active, wall, PairGuard(space) if wall is not None else None)
+    return StepForm(form, active, wall, PairGuard(space, v0, dt) if wall is not None else None)
 
 
 @_differentiated
@@ -235,7 +245,7 @@ def newmark_form(space: FemSpace, inputs: StepInputs) -> StepForm:
         active = _add_rigid_wall(form, space, du, force)
     if space.wall_contact_on:
         wall = _meshed_wall_contact(space, u, u.Other())
-        return StepForm(form, active, wall, PairGuard(space))
+        return StepForm(form, active, wall, PairGuard(space, v0, dt))
     return StepForm(form, active, None)
 
 

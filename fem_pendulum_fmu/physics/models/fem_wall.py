@@ -27,6 +27,11 @@ WALL_SEARCH_DISTANCE = 0.005  # m; ContactBoundary pairing radius
 WALL_CONTACT_INTORDER = 6  # Gauss rule on the wall face's elements (4 points at order 6)
 # a head sampled this far clear of the deformed face leaves every penalty integrand 0 (sagitta < 1 um)
 CLEAR_OF_FACE = 1e-5  # m
+# pairing radius of an update that must leave no pairs (0 would mean NGSolve's default, 2 element sizes)
+NO_PAIRS = 1e-12  # m
+# head points farther from the face than this have the undeformed face's distance as their gap: the wall
+# moves by a few um (4.7e-8 m out of contact, tests/test_deformable_wall.py), the gap there is > 1 cm
+SHIFT_RANGE = 0.01  # m
 
 
 def contact_boundary(
@@ -71,6 +76,26 @@ def discrete_gradient_contact(
     g1 = InnerProduct((pos + u) - (pos.Other() + u.Other()), n)
     cb.AddIntegrator(h * penalty_slope(g0, g1, k) * InnerProduct(du - du.Other(), n), deformed=False)
     return cb
+
+
+class WallResidual:
+    """The wall contact term alone, on a form of its own, for a step residual evaluated apart from the full
+    step form (fem_residual.py): a second ContactBoundary, paired with the step form's, and a one-bit set
+    that is empty while it has no pairs (the residual then skips the form)."""
+
+    def __init__(self, space: FemSpace, contact: ngs.ContactBoundary):
+        self.form = ngs.BilinearForm(space.X)
+        self.present = ngs.BitArray(1)
+        self.present.Clear()
+        self._cb = contact
+
+    def update(self, u0: ngs.GridFunction, maxdist: float) -> None:
+        """Pair as the step form was paired: at u0 within maxdist (NO_PAIRS: none)."""
+        self._cb.Update(u0, self.form, intorder=WALL_CONTACT_INTORDER, maxdist=maxdist)
+        if maxdist > NO_PAIRS:
+            self.present.Set(0)
+        else:
+            self.present.Clear()
 
 
 class WallFace:
@@ -126,11 +151,11 @@ class WallFace:
         return np.stack([np.sum(basis * values[c, seg], axis=1) for c in (0, 1)], axis=1)
 
     def shift(self, p: np.ndarray, u: np.ndarray, block: wall_contact.WallBlock) -> np.ndarray:
-        """Displacement of the face point level with each point p (zero for points not level with the face):
-        the reference height y0 of the face point whose deformed height is p_y, y0 + u_y(y0) = p_y, by one
-        fixed-point step from y0 = p_y (u_y is of the order of um)."""
+        """Displacement of the face point level with each point p (zero for points not level with the face,
+        or farther than SHIFT_RANGE from it): the reference height y0 of the face point whose deformed
+        height is p_y, y0 + u_y(y0) = p_y, by one fixed-point step from y0 = p_y (u_y is of the order of um)."""
         out = np.zeros_like(p)
-        level = (p[:, 1] > block.y_min) & (p[:, 1] < block.y_max)
+        level = (p[:, 1] > block.y_min) & (p[:, 1] < block.y_max) & (p[:, 0] < block.x_max + SHIFT_RANGE)
         if np.any(level):
             y = p[level, 1]
             y0 = np.clip(y - self.displacement(y, u)[:, 1], block.y_min, block.y_max)
