@@ -11,7 +11,9 @@ machine); prints the best of `repeat` runs, the wall time of that run, the
 load average, the internal steps, and the accuracy figures (theta at the end,
 the largest energy error over the swing energy) so that a faster run can be
 checked to be the same run. With --profile N it runs once under cProfile and
-prints the N entries with the most internal time (the profile of docs/fem.md).
+prints the N entries with the most internal time (the profile of docs/fem.md),
+then NGSolve's own timers of that run with the most time (calls and seconds:
+residuals, assemblies, factorisations, contact pairs).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import os
 import pstats
 import time
 
+import ngsolve as ngs
 import numpy as np
 
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
@@ -63,6 +66,10 @@ def main() -> None:
         profiler = cProfile.Profile()
         result = profiler.runcall(run, args.t_end, args.preset, args.deformable_wall)
         pstats.Stats(profiler).sort_stats("tottime").print_stats(args.profile)
+        timers = sorted(ngs.Timers(), key=lambda t: -t["time"])[: args.profile]
+        print("NGSolve timers (s, calls):")
+        for t in timers:
+            print(f"  {t['time']:8.3f} {t['counts']:7d}  {t['name']}")
         print(result, "load average", os.getloadavg())
         return
     runs = [run(args.t_end, args.preset, args.deformable_wall) for _ in range(args.repeat)]
