@@ -12,7 +12,7 @@ import numpy as np
 from ngsolve import CoefficientFunction, Det, Grad, Id, Inv, Trace, log, sqrt
 
 # Gauss-Legendre points on [0, 1] for the averaged stress of the discrete gradient
-_GAUSS = {
+GAUSS_ON_UNIT_INTERVAL = {
     # leggauss(n) gives n points and n weights
     n: tuple(
         zip((np.polynomial.legendre.leggauss(n)[0] + 1) / 2, np.polynomial.legendre.leggauss(n)[1] / 2, strict=True)
@@ -47,7 +47,7 @@ def averaged_pk2_stress(
     (C0 = C1 = I) produces no stress at all."""
     dC = C1 - C0
     total = None
-    for s, w in _GAUSS[points]:
+    for s, w in GAUSS_ON_UNIT_INTERVAL[points]:
         term = w * pk2_stress(C0 + s * dC, lam, mu)
         total = term if total is None else total + term
     return total

@@ -65,7 +65,12 @@ class FemModel:
         self.head = HeadBoundary(self.space)
         self.measures = FemOutputs(self.space, self.inputs, self.head)
         turn = Turn(self.space, self.measures.rotation_angle)
-        self.newton = HeldJacobianNewton(self.form.form, self.space, self._load, self.head.active_elements, turn)
+        split = self.form.split
+        residual = split or self.form.form.Apply
+        inertia = None if split is None else (split.linear.mass, split.linear.inertia_coefficient)
+        self.newton = HeldJacobianNewton(
+            self.form.form, residual, self.space, self._load, self.head.active_elements, turn, inertia
+        )
         self.time = 0.0
         self._state = self.scheme.start(self, self._initial_state())
         self._outputs = self.measures.of(self._state, 0.0, 0)
@@ -94,6 +99,8 @@ class FemModel:
     def _load(self, u0: np.ndarray, v0: np.ndarray, dt: float, torque: float, active: np.ndarray | None) -> None:
         """Set the step form's inputs: start state, size, torque, contact set, the meshed wall's pairs."""
         self.inputs.set(u0, v0, dt, torque)
+        if self.form.split is not None:
+            self.form.split.load(u0, v0, dt, torque * self.inputs.torque_scale)
         if self.form.active is not None and active is not None:  # both or neither: see load_step
             self.head.activate(self.form.active, active)
         self.form.update_wall_pairs(self.inputs.u0)
@@ -108,7 +115,7 @@ class FemModel:
         """One step of the scheme; None when it cannot be taken (the stepper then halves dt)."""
         self.load_step(xs, dt, torque)
         u1 = self._solve_covering_contact(xs, dt, torque)
-        if u1 is None or self.measures.min_det_F(u1) <= 0.0:
+        if u1 is None or self.min_det_F(u1) <= 0.0:
             return None  # no convergence, or an element turned inside out
         v1 = 2.0 / dt * (u1 - xs.u) - xs.v
         a1 = self.scheme.end_acceleration(xs, v1, dt)
@@ -139,7 +146,10 @@ class FemModel:
 
     def min_det_F(self, u: np.ndarray | None = None) -> float:
         """Smallest det F at the integration points of every element (of the current state by default)."""
-        return self.measures.min_det_F(self._state.u if u is None else u)
+        u = self._state.u if u is None else u
+        if self.form.split is not None:  # the same points (the forms' rule), counted in the compiled kernel
+            return self.form.split.elastic.min_det_F(u)
+        return self.measures.min_det_F(u)
 
     # ----------------------------------------------------- contact geometry
     def gap_and_rate(self, xs: FemState) -> tuple[float, float]:
@@ -209,7 +219,7 @@ class FemModel:
             arrays["a"] = s.a.copy()
         if self.newton.held is not None:
             jp = self.newton.held
-            scalars.update(jac_dt=jp.dt, jac_torque=jp.torque)
+            scalars.update(jac_dt=jp.dt, jac_torque=jp.torque, jac_dt_factorised=jp.dt_factorised)
             arrays.update(jac_u0=jp.u0.copy(), jac_v0=jp.v0.copy(), jac_w=jp.w.copy(), jac_active=jp.active.copy())
         return ModelState("fem", self.time, scalars, arrays)
 
@@ -235,6 +245,7 @@ class FemModel:
                 sc["jac_dt"],
                 sc["jac_torque"],
                 arr["jac_active"].astype(int),
+                sc.get("jac_dt_factorised", 0.0),
             )
         self.newton.ready = False
         self.time = state.time

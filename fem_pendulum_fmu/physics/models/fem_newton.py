@@ -1,8 +1,10 @@
 """The FE model's nonlinear solve of one step: modified Newton with a held Jacobian.
 
-The Jacobian is kept from step to step while the step size stays within
-HELD_DT_CHANGE of the one it was assembled for and the iterations contract
-fast, and re-assembled (numeric re-factorisation only) when they do not.
+The Jacobian is kept from step to step while the iterations contract fast
+enough, and re-assembled and factorised when they do not. A new step size
+(farther than HELD_DT_CHANGE from the one it was factorised for) changes only
+its inertia term: where the step form says what that is (`Inertia`), the held
+matrix is refactorised with the term rescaled instead of re-assembled.
 
 The held Jacobian is turned with the pendulum: the step forms are
 frame-indifferent (elastic stress, follower torque; inertia, hinge and gravity
@@ -23,15 +25,22 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import ngsolve as ngs
 import numpy as np
+import scipy.sparse as sp
 from ngsolve import GridFunction
 
+from .. import native
+from .fem_lu import HeldFactor
 from .fem_space import FemSpace, FemState
 
-NEWTON_MAX_IT = 12
+# With the residual compiled (fem_residual.py) an iteration costs a hundredth of a re-assembly and
+# factorisation: the held Jacobian is kept while the corrections shrink by at least 2x (was 4x) and
+# converge within 20 iterations (was 12). The rubber scene's first 0.3 s: 287 re-assemblies and 4860
+# iterations before, 23 and 6183 after (docs/fem.md, "Profile and speed-up").
+NEWTON_MAX_IT = 20
+SLOWEST_CONTRACTION = 0.5
 # A step size farther than this share from the held Jacobian's needs a new one (its inertia part goes as
 # 1/dt^2); closer, the contraction test decides. In contact the steps change by a few per mille each: on the
 # steel scene's impact this took 13 re-assemblies where an exact match took 40, for 2 % more residuals.
@@ -48,9 +57,20 @@ class JacobianPoint:
     dt: float
     torque: float
     active: np.ndarray  # head elements with contact assembled (local indices)
+    dt_factorised: float = 0.0  # the step size its inertia term was rescaled to (0: dt, as assembled)
+
+    @property
+    def serves(self) -> float:
+        """The step size the factorised Jacobian is for."""
+        return self.dt_factorised or self.dt
 
 
+# The step form's inertia term, (mass matrix over X, its coefficient as a function of dt), where the
+# Jacobian of a new step size is the held one with the inertia term rescaled; None: re-assembled
+Inertia = tuple[sp.csr_matrix, Callable[[float], float]]
 # load(u0, v0, dt, torque, active head elements or None): set the step form's inputs
+# residual(w, res): the step form's residual at w into res (ngsolve vectors)
+Residual = Callable[[ngs.BaseVector, ngs.BaseVector], None]
 Loader = Callable[[np.ndarray, np.ndarray, float, float, "np.ndarray | None"], None]
 
 
@@ -66,10 +86,16 @@ class Turn:
         self.ix = np.concatenate([ix, [space.nV]])  # the multipliers (q1, q2) turn as a vector too
         self.iy = np.concatenate([ix + half, [space.nV + 1]])
         self.angle = angle  # best-fit rigid rotation of a displacement about the pivot
+        self._lib = native.kernels()
+        self.ix, self.iy = self.ix.astype(np.int32), self.iy.astype(np.int32)
+        self.kernel_args = (len(self.ix), self.ix.ctypes.data, self.iy.ctypes.data)
 
     def apply(self, vec: np.ndarray, d: float) -> None:
-        """Turn vec in place by d (rad)."""
+        """Turn vec (contiguous) in place by d (rad)."""
         c, s = math.cos(d), math.sin(d)
+        if self._lib is not None:
+            self._lib.femp_turn(*self.kernel_args, c, s, vec.ctypes.data)
+            return
         vx, vy = vec[self.ix], vec[self.iy]
         vec[self.ix] = c * vx - s * vy
         vec[self.iy] = s * vx + c * vy
@@ -77,11 +103,12 @@ class Turn:
 
 def too_slow(size: float, last: float, tol: float, left: int) -> bool:
     """Whether to refresh the Jacobian after a correction of `size` that followed one of `last`: when the
-    iterations contract by less than 4x, or when at their rate they would not reach `tol` within the `left`
-    iterations there are. The second: a Jacobian assembled at a poor first iterate (the start of a rubber
-    contact step) contracts steadily by 5-10x and the step failed after NEWTON_MAX_IT, to be halved and
-    retried (97 of 923 solves in the compliant scene's first 0.4 s); re-assembled, it converges in two."""
-    if size > 0.25 * last:
+    iterations contract by less than 1 / SLOWEST_CONTRACTION, or when at their rate they would not reach
+    `tol` within the `left` iterations there are. The second: a Jacobian assembled at a poor first
+    iterate (the start of a rubber contact step) contracts steadily by 5-10x and the step failed after
+    NEWTON_MAX_IT, to be halved and retried (97 of 923 solves in the compliant scene's first 0.4 s);
+    re-assembled, it converges in two."""
+    if size > SLOWEST_CONTRACTION * last:
         return True
     if not math.isfinite(last) or size <= 0.0:
         return False
@@ -95,9 +122,17 @@ class HeldJacobianNewton:
     `active_now` gives the contact set currently assembled."""
 
     def __init__(
-        self, form: ngs.BilinearForm, space: FemSpace, load: Loader, active_now: Callable[[], np.ndarray], turn: Turn
+        self,
+        form: ngs.BilinearForm,
+        residual: Residual,
+        space: FemSpace,
+        load: Loader,
+        active_now: Callable[[], np.ndarray],
+        turn: Turn,
+        inertia: Inertia | None = None,
     ):
-        self.form = form  # the ngsolve BilinearForm of the step
+        self.form = form  # the ngsolve BilinearForm of the step: its linearisation is the Jacobian
+        self._apply = residual
         self.w = GridFunction(space.X)
         self._res = self.w.vec.CreateVector()
         self._turned = self.w.vec.CreateVector()
@@ -105,13 +140,15 @@ class HeldJacobianNewton:
         # numpy views of the vectors, made once (a view per use cost as much as the turn itself)
         self._res_np, self._turned_np = self._res.FV().NumPy(), self._turned.FV().NumPy()
         self._corr_np = self._corr.FV().NumPy()
+        self._corr_np[:] = 0.0  # the fixed unknowns' corrections stay 0
         self._turn = turn
-        self._freedofs = space.X.FreeDofs()
         self._nV = space.nV
+        self._w_np = self.w.vec.FV().NumPy()  # the GridFunction's vector stays put
+        self._lib = native.kernels()
+        self._at = tuple(a.ctypes.data for a in (self._res_np, self._turned_np, self._corr_np, self._w_np))
         self._load, self._active_now = load, active_now
-        self._inverse: Any = None  # UMFPACK inverse of the held Jacobian (an ngsolve BaseMatrix)
-        self._inverse_of: Any = None  # the matrix it was factorised from
-        self._inverse_nze = -1
+        self._factor = HeldFactor(np.array(space.X.FreeDofs(), dtype=bool), None if inertia is None else inertia[0])
+        self._inertia_coeff = None if inertia is None else inertia[1]
         self.held: JacobianPoint | None = None
         self.ready = False  # the held Jacobian is assembled and factorised (False after a restore)
 
@@ -123,20 +160,22 @@ class HeldJacobianNewton:
         """The step form's residual at (u, lam) with the inputs as loaded (a vector of the solver's)."""
         wv = self.w.vec.FV().NumPy()
         wv[: self._nV], wv[self._nV :] = u, lam
-        self.form.Apply(self.w.vec, self._res)
+        self._apply(self.w.vec, self._res)
         return self._res
 
     def solve(self, xs: FemState, dt: float, torque: float) -> np.ndarray | None:
         """u1 of the step from xs (inputs loaded); None when Newton does not converge."""
         nV = self._nV
-        wv = self.w.vec.FV().NumPy()
+        wv = self._w_np
         wv[:nV] = xs.u + dt * xs.v
         wv[nV:] = xs.lam
         res = self._res
         scale = max(float(np.max(np.abs(dt * xs.v))), 1e-12)
         if self.held is not None and not self.ready:
             self._rebuild_held(self.held, xs, dt, torque)
-        refresh = self.held is None or abs(self.held.dt - dt) > HELD_DT_CHANGE * dt
+        refresh = self.held is None
+        if self.held is not None and abs(self.held.serves - dt) > HELD_DT_CHANGE * dt:
+            refresh = not self._rescale(dt)
         # the pendulum's rotation since the start of the step the held Jacobian was assembled in
         turn = 0.0 if self.held is None else self._turn.angle(xs.u) - self._turn.angle(self.held.u0)
         last, tol = math.inf, 1e-10 * scale + 1e-15
@@ -145,41 +184,59 @@ class HeldJacobianNewton:
                 self._refresh(xs, dt, torque)
                 refresh = False
                 turn = 0.0
-            self.form.Apply(self.w.vec, res)
-            cv = self._correction(turn)
-            if not np.all(np.isfinite(cv)):
-                return None
-            wv -= cv
-            size = float(np.max(np.abs(cv[:nV])))
+            self._apply(self.w.vec, res)
+            size = self._update(turn)
+            if size < 0.0:
+                return None  # not finite
             if size <= tol:
                 return wv[:nV].copy()
             refresh = too_slow(size, last, tol, NEWTON_MAX_IT - it - 1)
             last = size
         return None
 
+    def _update(self, turn: float) -> float:
+        """w -= the Newton correction for the residual in self._res; its largest displacement entry
+        (-1 if it is not finite)."""
+        if self._lib is None:
+            cv = self._correction(turn)
+            if not np.all(np.isfinite(cv)):
+                return -1.0
+            self._w_np -= cv
+            return float(np.max(np.abs(cv[: self._nV])))
+        res_at, turned_at, corr_at, w_at = self._at
+        lib, factor, n = self._lib, self._factor, len(self._w_np)
+        if turn == 0.0:
+            lib.femp_lu_solve(*factor.kernel_args, res_at, factor.work_at, corr_at)
+        else:
+            lu = (*factor.kernel_args, res_at, turned_at, factor.work_at, corr_at, n)
+            lib.femp_turned_solve(*self._turn.kernel_args, math.cos(turn), math.sin(turn), *lu)
+        return float(lib.femp_update(n, self._nV, corr_at, w_at))
+
     def _correction(self, turn: float) -> np.ndarray:
         """The Newton correction Q J^-1 Q^T res of the held Jacobian J turned by `turn`, for the residual
         in self._res (a view of the solver's correction vector, valid until the next call)."""
-        inverse = self._inverse
         if turn == 0.0:
-            inverse.Mult(self._res, self._corr)
+            self._factor.solve(self._res_np, self._corr_np)
             return self._corr_np
         self._turned_np[:] = self._res_np
         self._turn.apply(self._turned_np, -turn)
-        inverse.Mult(self._turned, self._corr)
+        self._factor.solve(self._turned_np, self._corr_np)
         self._turn.apply(self._corr_np, turn)
         return self._corr_np
 
     def _factorise(self) -> None:
         """Assemble the Jacobian at the current inputs and w, and factorise it."""
         self.form.AssembleLinearization(self.w.vec)
-        mat = self.form.mat
-        if self._inverse is None or mat is not self._inverse_of or mat.nze != self._inverse_nze:
-            # new matrix or new graph (contact pairs of the deformable wall): full factorisation
-            self._inverse = mat.Inverse(self._freedofs, inverse="umfpack")
-            self._inverse_of, self._inverse_nze = mat, mat.nze
-        else:
-            self._inverse.Update()  # same graph: numeric re-factorisation only
+        self._factor.factorise(self.form.mat)
+
+    def _rescale(self, dt: float) -> bool:
+        """Factorise the held Jacobian with its inertia term for the step size dt instead of re-assembling
+        it (its stiffness part does not depend on dt); False where the form has no such term."""
+        if self._inertia_coeff is None or self.held is None:
+            return False
+        self.held.dt_factorised = dt
+        self._factor.factorise_shifted(self._inertia_coeff(dt) - self._inertia_coeff(self.held.dt))
+        return True
 
     def _refresh(self, xs: FemState, dt: float, torque: float) -> None:
         self.held = JacobianPoint(
@@ -195,6 +252,8 @@ class HeldJacobianNewton:
         self._load(jp.u0, jp.v0, jp.dt, jp.torque, jp.active)
         self.w.vec.FV().NumPy()[:] = jp.w
         self._factorise()
+        if jp.dt_factorised:
+            self._rescale(jp.dt_factorised)
         self.ready = True
         self._load(xs.u, xs.v, dt, torque, active_now)
         self.w.vec.FV().NumPy()[:] = w_now

@@ -1,0 +1,303 @@
+"""The energy-momentum step form's residual, evaluated as NGSolve integrals of its nonlinear terms plus
+assembled matrices of its linear ones.
+
+Of the step form's 0.18 ms residual on the steel scene's default mesh, the
+inertia term alone, linear in the unknowns, cost 0.075 ms: a BilinearForm's
+Apply evaluates the shape functions of every element at every call, whatever
+the integrand. The terms linear in the unknowns w = (u1, hinge multipliers)
+are therefore assembled once:
+
+* inertia  (2 / dt^2) M (u1 - u0 - dt v0), M the mass matrix of every body;
+* gravity, a constant vector;
+* the hinge's mean-displacement constraint and its multipliers' load, a matrix;
+* the follower torque at the midpoint configuration, T (w_t + T1 (u0 + u1) / 2):
+  its load Cof(F) N is linear in F for 2 x 2 matrices.
+
+Only the elastic stress and the wall contact are integrated per call
+(the `nonlinear` form). The sum is the same residual as the full form's up to
+round-off, and the full form stays the source of the Newton Jacobian.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import ngsolve as ngs
+import numpy as np
+import scipy.sparse as sp
+from ngsolve import H1, TRIG, VOL, BilinearForm, Cof, Grad, InnerProduct, IntegrationRule, LinearForm, specialcf
+
+from .. import material, native
+from .. import material_points as points
+from ..scene import Material
+from .fem_space import FemSpace
+
+
+def _scipy(mat: ngs.BaseMatrix) -> sp.csr_matrix:
+    """The matrix in scipy's CSR form, with the int32 indices the kernel reads."""
+    rows, cols, vals = mat.COO()
+    csr = sp.csr_matrix((np.array(vals), (np.array(rows), np.array(cols))), shape=(mat.height, mat.width))
+    csr.indptr, csr.indices = csr.indptr.astype(np.int32), csr.indices.astype(np.int32)
+    return csr
+
+
+class LinearTerms:
+    """The step form's terms linear in w, as sparse matrices and vectors over the space X."""
+
+    def __init__(self, space: FemSpace, torque_weight: ngs.CoefficientFunction):
+        sc, X = space.scene, space.X
+        h, g = sc.pendulum.thickness, sc.gravity
+        (u, q1, q2), (du, p1, p2) = X.TnT()
+        mass = BilinearForm(X)
+        gravity = LinearForm(X)
+        for region, mat in space.bodies:
+            mass += mat.rho * h * InnerProduct(u, du) * ngs.dx(region)
+            gravity += mat.rho * h * g * du[1] * ngs.dx(region)
+        hinge = BilinearForm((q1 * du[0] + q2 * du[1] + p1 * u[0] + p2 * u[1]) * ngs.ds("hinge"))
+        N = specialcf.normal(2)
+        # the torque's line load per unit torque_load: -weight Cof(I + G) N = -weight (N + Cof(G) N)
+        torque_rest = LinearForm(-InnerProduct(torque_weight * N, du) * ngs.ds("hinge"))
+        torque_grad = BilinearForm(-InnerProduct(torque_weight * (Cof(Grad(u).Trace()) * N), du) * ngs.ds("hinge"))
+        self._lib = native.kernels()
+        self.mass = _scipy(mass.Assemble().mat)
+        self.hinge = _scipy(hinge.Assemble().mat)
+        self.torque_grad = _scipy(torque_grad.Assemble().mat)
+        self._args = [
+            (m.shape[0], m.indptr.ctypes.data, m.indices.ctypes.data, m.data.ctypes.data)
+            for m in (self.mass, self.hinge, self.torque_grad)
+        ]
+        self.gravity = gravity.Assemble().vec.FV().NumPy().copy()
+        self.torque_rest = torque_rest.Assemble().vec.FV().NumPy().copy()
+        self._nV = space.nV
+        self._coeffs = (0.0, 0.0)
+        self._constant, self._w0, self._wv = np.zeros(X.ndof), np.zeros(X.ndof), np.zeros(X.ndof)
+        self._moved = np.zeros(X.ndof)  # w - u0 - dt v0 (the multipliers' entries unused: M is 0 there)
+        self._moved_at = self._moved.ctypes.data
+
+    def load(self, u0: np.ndarray, v0: np.ndarray, dt: float, torque_load: float) -> None:
+        """The step's inputs: the part of the residual that does not depend on w is computed here, once.
+        The inertia term stays (2 / dt^2) M (w - u0 - dt v0), the difference taken first as in the form:
+        2 / dt^2 M w - 2 / dt^2 M (u0 + dt v0) lost every digit at the 1e-9 s steps of an impact's onset."""
+        nV, w0, wv, constant = self._nV, self._w0, self._wv, self._constant
+        w0[:nV] = u0
+        np.multiply(v0, dt, out=wv[:nV])
+        wv[:nV] += u0
+        inertia = self.inertia_coefficient(dt)
+        np.copyto(constant, self.gravity)
+        if torque_load != 0.0:
+            constant += torque_load * self.torque_rest
+            self._axpy(2, 0.5 * torque_load, w0, constant)
+        self._coeffs = (inertia, 0.5 * torque_load)
+
+    @staticmethod
+    def inertia_coefficient(dt: float) -> float:
+        """The inertia term's factor on the mass matrix: (2 / dt^2) M (u1 - u0 - dt v0)."""
+        return 2.0 / (dt * dt)
+
+    def _axpy(self, which: int, a: float, x: np.ndarray, y: np.ndarray) -> None:
+        """y += a M x for the mass (0), hinge (1) or torque (2) matrix."""
+        if self._lib is None:
+            y += a * ((self.mass, self.hinge, self.torque_grad)[which] @ x)
+        else:
+            self._lib.femp_csr_axpy(*self._args[which], a, x.ctypes.data, y.ctypes.data)
+
+    def add(self, w: np.ndarray, out: np.ndarray, at: tuple[int, int], first: bool) -> None:
+        """out += the linear terms' residual at w (both contiguous, at the addresses `at`); first: out
+        holds nothing yet, and is overwritten."""
+        inertia, half_torque = self._coeffs
+        if first:
+            np.copyto(out, self._constant)
+        else:
+            out += self._constant
+        np.subtract(w, self._wv, out=self._moved)
+        vectors = (self._moved, w, w)
+        if self._lib is None:
+            matrices = (self.mass, self.hinge, self.torque_grad)
+            for a, mat, vec in zip((inertia, 1.0, half_torque), matrices, vectors, strict=True):
+                if a != 0.0:
+                    out += a * (mat @ vec)
+            return
+        at_vectors = (self._moved_at, at[0], at[0])
+        axpy = self._lib.femp_csr_axpy
+        for a, args, x in zip((inertia, 1.0, half_torque), self._args, at_vectors, strict=True):
+            if a != 0.0:
+                axpy(*args, a, x, at[1])
+
+
+@dataclass
+class VolumeRule:
+    """A body's integration points (the step form's rule, exact to 2 order): the gradients of the
+    scalar basis there and the points' weights (reference weight x measure x thickness)."""
+
+    grad: sp.csr_matrix  # (2 Q, scalar dofs): rows 0..Q-1 d/dx, rows Q..2Q-1 d/dy
+    weights: np.ndarray  # (Q,)
+
+
+def volume_rule(space: FemSpace, region: str) -> VolumeRule:
+    """The rule of the step form's volume terms on a region, as NGSolve integrates them."""
+    mesh, order = space.mesh, space.scene.model.order
+    scalar = H1(mesh, order=order)
+    if 2 * scalar.ndof != space.nV:
+        raise ValueError("the displacement space is not two copies of H1 of its order")
+    rule = IntegrationRule(TRIG, 2 * order)
+    rows: list[np.ndarray] = []
+    cols: list[np.ndarray] = []
+    dx_vals: list[np.ndarray] = []
+    dy_vals: list[np.ndarray] = []
+    weights: list[float] = []
+    for el in mesh.Elements(VOL):
+        if el.mat != region:
+            continue
+        ei = ngs.ElementId(el)
+        fel, trafo, dofs = scalar.GetFE(ei), mesh.GetTrafo(ei), np.array(scalar.GetDofNrs(ei))
+        for point, weight in zip(rule.points, rule.weights, strict=True):
+            mip = trafo(point[0], point[1])
+            dshape = np.array(fel.CalcDShape(mip))
+            rows.append(np.full(len(dofs), len(weights)))
+            cols.append(dofs)
+            dx_vals.append(dshape[:, 0])
+            dy_vals.append(dshape[:, 1])
+            weights.append(weight * mip.measure)
+    q = len(weights)
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    grad = sp.csr_matrix(
+        (np.concatenate(dx_vals + dy_vals), (np.concatenate((r, r + q)), np.concatenate((c, c)))),
+        shape=(2 * q, scalar.ndof),
+    )
+    return VolumeRule(grad, np.array(weights) * space.scene.pendulum.thickness)
+
+
+@dataclass
+class _Body:
+    """One body's rule and material, in the arrays the kernel reads."""
+
+    rule: VolumeRule
+    lam: float
+    mu: float
+    gauss_s: np.ndarray  # the discrete gradient's Gauss points on [0, 1] and weights
+    gauss_w: np.ndarray
+    indptr: np.ndarray  # rule.grad as int32 CSR arrays
+    indices: np.ndarray
+    F0: np.ndarray  # (Q, 4) and (Q, 3): F and C of the step's start, set by load
+    C0: np.ndarray
+
+    def kernel_args(self, nS: int) -> tuple[tuple, tuple]:
+        """The kernel's arguments before u and between u and out (addresses of arrays that stay put)."""
+        rule = self.rule
+        head = (len(rule.weights), self.indptr.ctypes.data, self.indices.ctypes.data, rule.grad.data.ctypes.data, nS)
+        middle: tuple[float, ...] = (self.F0.ctypes.data, self.C0.ctypes.data, rule.weights.ctypes.data)
+        middle += (self.lam, self.mu, len(self.gauss_w), self.gauss_s.ctypes.data, self.gauss_w.ctypes.data)
+        return head, middle
+
+
+class ElasticTerms:
+    """The discrete-gradient stress term h P(F0, F1) : Grad(du) of every body: the same integrand and
+    rule as the step form's, in the compiled kernel (native.py) or else in numpy (material_points.py)."""
+
+    def __init__(self, space: FemSpace, dg_points: Callable[[Material], int]):
+        self._lib = native.kernels()
+        self._bodies = []
+        for region, mat in space.bodies:
+            rule = volume_rule(space, region)
+            gauss = material.GAUSS_ON_UNIT_INTERVAL[dg_points(mat)]
+            q = len(rule.weights)
+            self._bodies.append(
+                _Body(
+                    rule,
+                    *mat.lame,
+                    np.array([s for s, _ in gauss]),
+                    np.array([w for _, w in gauss]),
+                    rule.grad.indptr.astype(np.int32),
+                    rule.grad.indices.astype(np.int32),
+                    np.zeros((q, 4)),
+                    np.zeros((q, 3)),
+                )
+            )
+        self.nS = space.nV // 2
+        self._args = [b.kernel_args(self.nS) for b in self._bodies]
+
+    def _deformation_gradient(self, rule: VolumeRule, u: np.ndarray) -> np.ndarray:
+        """F at the rule's points as (4, Q) (numpy form)."""
+        grads = rule.grad @ u[: 2 * self.nS].reshape(2, self.nS).T  # (2 Q, 2): d/dx, d/dy of (u_x, u_y)
+        q = len(rule.weights)
+        gx, gy = grads[:q], grads[q:]
+        return np.stack((1.0 + gx[:, 0], gy[:, 0], gx[:, 1], 1.0 + gy[:, 1]))
+
+    def load(self, u0: np.ndarray) -> None:
+        """The step's start displacement: its F and C, once per step."""
+        u0 = np.ascontiguousarray(u0, dtype=float)
+        for b in self._bodies:
+            if self._lib is not None:
+                g = b.rule.grad
+                args = (len(b.rule.weights), b.indptr.ctypes.data, b.indices.ctypes.data, g.data.ctypes.data)
+                self._lib.femp_deformation(*args, self.nS, u0.ctypes.data, b.F0.ctypes.data, b.C0.ctypes.data)
+            else:
+                F0 = self._deformation_gradient(b.rule, u0)
+                b.F0[:] = F0.T
+                b.C0[:] = points.right_cauchy_green(F0).T
+
+    def add(self, u: np.ndarray, out: np.ndarray, at: tuple[int, int]) -> None:
+        """out[:nV] += the stress term's residual at the end displacement u (both contiguous, at the
+        addresses `at`)."""
+        if self._lib is not None:
+            for head, middle in self._args:
+                self._lib.femp_stress_residual(*head, at[0], *middle, at[1])
+            return
+        for b in self._bodies:
+            self._add_numpy(b, u, out)
+
+    def min_det_F(self, u: np.ndarray) -> float:
+        """The smallest det F of the displacement u at the rule's points of every body."""
+        if self._lib is not None:
+            u = np.ascontiguousarray(u, dtype=float)
+            return min(self._lib.femp_min_det(*head, u.ctypes.data) for head, _ in self._args)
+        dets = []
+        for b in self._bodies:
+            f00, f01, f10, f11 = self._deformation_gradient(b.rule, u)
+            dets.append(float(np.min(f00 * f11 - f01 * f10)))
+        return min(dets)
+
+    def _add_numpy(self, b: _Body, u: np.ndarray, out: np.ndarray) -> None:
+        nS, F0 = self.nS, b.F0.T
+        F1 = self._deformation_gradient(b.rule, u)
+        S = points.averaged_pk2_stress(b.C0.T, points.right_cauchy_green(F1), b.lam, b.mu, len(b.gauss_w))
+        wP = b.rule.weights * points.first_piola(0.5 * (F0 + F1), S)
+        res = b.rule.grad.T @ np.column_stack((np.concatenate((wP[0], wP[1])), np.concatenate((wP[2], wP[3]))))
+        out[:nS] += res[:, 0]
+        out[nS : 2 * nS] += res[:, 1]
+
+
+class SplitResidual:
+    """residual(w, res): the energy-momentum step form's residual at w into res (ngsolve vectors over X):
+    the stress in numpy, the linear terms as matrices, the rigid-wall contact integrated by NGSolve
+    on the head elements that can reach the block (none: nothing to integrate)."""
+
+    def __init__(
+        self, elastic: ElasticTerms, linear: LinearTerms, contact: BilinearForm | None, active: ngs.BitArray | None
+    ):
+        self.elastic, self.linear, self._contact, self._active = elastic, linear, contact, active
+        self._nV = 2 * elastic.nS
+        self._views: dict[int, tuple[ngs.BaseVector, np.ndarray, int]] = {}
+
+    def load(self, u0: np.ndarray, v0: np.ndarray, dt: float, torque_load: float) -> None:
+        """The step's inputs (the same as the full form's StepInputs)."""
+        self.elastic.load(u0)
+        self.linear.load(u0, v0, dt, torque_load)
+
+    def __call__(self, w: ngs.BaseVector, res: ngs.BaseVector) -> None:
+        (wn, w_at), (out, out_at) = self._view(w), self._view(res)
+        form, first = self._contact, True
+        if form is not None and self._active is not None and self._active.NumSet() > 0:
+            form.Apply(w, res)
+            first = False
+        self.linear.add(wn, out, (w_at, out_at), first=first)
+        self.elastic.add(wn, out, (w_at, out_at))
+
+    def _view(self, vec: ngs.BaseVector) -> tuple[np.ndarray, int]:
+        """The numpy view of an ngsolve vector and its address, taken once per vector (3 us per call)."""
+        key = id(vec)
+        if key not in self._views:
+            view = vec.FV().NumPy()
+            self._views[key] = (vec, view, view.ctypes.data)
+        return self._views[key][1:]

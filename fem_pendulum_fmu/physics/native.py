@@ -1,0 +1,83 @@
+"""Compiled inner loops (elastic_kernel.c): built once per machine with its C compiler, cached like meshes.
+
+At the FE model's size (300-700 unknowns) a residual is a few hundred
+thousand floating-point operations, which NGSolve's integrators and numpy
+alike spend ten times over in per-call and per-element overhead (docs/fem.md,
+"Profile and speed-up"). The kernel is plain C loaded with ctypes: no Python
+headers, no build step at install. Where there is no C compiler, or with
+FEM_PENDULUM_KERNELS=numpy, `kernels()` is None and callers use their numpy
+forms of the same computation (equal up to round-off; each run is
+deterministic either way).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import logging
+import os
+import platform
+import shutil
+import subprocess
+import tempfile
+from functools import lru_cache
+from pathlib import Path
+
+from .cache import cached_file
+
+LOG = logging.getLogger("fem_pendulum_fmu")
+SOURCE = Path(__file__).with_name("elastic_kernel.c")
+ENV = "FEM_PENDULUM_KERNELS"  # "numpy": never compile, use the numpy forms
+# no -ffast-math and no contraction into fused multiply-adds: the same sums in the same order on every run
+FLAGS = ("-O2", "-shared", "-fPIC", "-ffp-contract=off")
+
+_P = ctypes.c_void_p
+_I = ctypes.c_int
+_D = ctypes.c_double
+SIGNATURES = {
+    "femp_deformation": (_I, _P, _P, _P, _I, _P, _P, _P),
+    "femp_stress_residual": (_I, _P, _P, _P, _I, _P, _P, _P, _P, _D, _D, _I, _P, _P, _P),
+    "femp_csr_axpy": (_I, _P, _P, _P, _D, _P, _P),
+    "femp_lu_solve": (_I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P),
+    "femp_turn": (_I, _P, _P, _D, _D, _P),
+    "femp_turned_solve": (_I, _P, _P, _D, _D, _I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _I),
+    "femp_update": (_I, _I, _P, _P),
+    "femp_min_det": (_I, _P, _P, _P, _I, _P),
+}
+RESULTS = {"femp_update": ctypes.c_double, "femp_min_det": ctypes.c_double}
+
+
+def _compiler() -> str | None:
+    return os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+
+
+def _compile(compiler: str, output: Path) -> None:
+    command = [compiler, *FLAGS, "-o", str(output), str(SOURCE), "-lm"]
+    subprocess.run(command, check=True, capture_output=True, timeout=120)
+
+
+@lru_cache(maxsize=1)
+def kernels() -> ctypes.CDLL | None:
+    """The compiled kernels, or None (no compiler, a failed build, or FEM_PENDULUM_KERNELS=numpy)."""
+    if os.environ.get(ENV, "").lower() == "numpy":
+        return None
+    compiler = _compiler()
+    if compiler is None:
+        LOG.info("no C compiler found: the FE residual runs in its numpy form")
+        return None
+    source = SOURCE.read_bytes()
+    key = {"source": hashlib.sha256(source).hexdigest(), "compiler": compiler, "flags": FLAGS}
+    key["machine"] = platform.machine()
+    try:
+        path = cached_file("kernel", key, ".so", lambda out: _compile(compiler, out))
+        if path is None:  # no cache: build into a private folder for this process
+            path = Path(tempfile.mkdtemp(prefix="fem_pendulum_kernel")) / "elastic_kernel.so"
+            _compile(compiler, path)
+        lib = ctypes.CDLL(str(path))
+    except (OSError, subprocess.SubprocessError) as exc:
+        LOG.warning("the FE kernel did not build (%s): the FE residual runs in its numpy form", exc)
+        return None
+    for name, args in SIGNATURES.items():
+        fn = getattr(lib, name)
+        fn.argtypes, fn.restype = args, RESULTS.get(name)
+    return lib
