@@ -19,7 +19,7 @@ from .. import contact as wall_contact
 from ..contact_time import ClosestPoint
 from ..fe_boundary import head_points
 from .fem_space import FemSpace, FemState
-from .fem_wall import WallFace
+from .fem_wall import WALL_SEARCH_DISTANCE, WallFace
 
 # added to the reach of a step (PairGuard): it covers the wall face's displacement (um) and the head curve
 # between its sample points (< 1 um)
@@ -128,9 +128,10 @@ class HeadBoundary:
 
 
 class PairGuard:
-    """Whether the head is too far from the wall block to touch it within the step being loaded: farther
-    in x from the face than 3 times the fastest point's speed times the step (as for the rigid wall's
-    contact set) plus PAIR_MARGIN. The step forms' pairs are then not needed (their force is zero)."""
+    """The pairing radius a step needs: the reach of the step, 3 times the fastest point's speed times
+    the step (as for the rigid wall's contact set) plus PAIR_MARGIN, plus the head's depth in the wall
+    (a wall point inside the head is that close to it); 0 when the head is farther from the face than
+    its reach, as no pair could then act within the step."""
 
     def __init__(self, space: FemSpace, v0: ngs.GridFunction, dt: ngs.Parameter):
         head = head_points(space.mesh, space.contact_order)
@@ -139,8 +140,10 @@ class PairGuard:
         self._face_x = space.scene.block.x_max
         self._v0, self._dt = v0, dt
 
-    def far(self, u0: np.ndarray) -> bool:
+    def radius(self, u0: np.ndarray) -> float:
         """At the step start u0 (the step's v0 and dt as loaded); the x distance bounds the distance."""
         gap_x = float(np.min(self._x + self._trace_x @ u0)) - self._face_x
         reach = 3.0 * float(np.max(np.abs(self._v0.vec.FV().NumPy()))) * self._dt.Get() + PAIR_MARGIN
-        return gap_x > reach
+        if gap_x > reach:
+            return 0.0
+        return min(reach + max(-gap_x, 0.0), WALL_SEARCH_DISTANCE)
