@@ -46,6 +46,7 @@ from .. import material, seed_stepping, stepping
 from ..fe_boundary import hinge_torque_load
 from ..scene import Material, Scene
 from .fem_head import PairGuard
+from .fem_residual import ElasticTerms, LinearTerms, SplitResidual
 from .fem_space import FemSpace, FemState
 from .fem_wall import (
     NO_PAIRS,
@@ -94,6 +95,7 @@ class StepForm:
     wall_contact: ngs.ContactBoundary | None  # ContactBoundary of the meshed wall (None: not meshed, or k = 0)
     pair_guard: PairGuard | None = None  # with wall_contact: whether the head is out of the pairs' reach
     pairs_empty: bool = True  # the form holds no contact pairs
+    split: SplitResidual | None = None  # the same residual, faster (fem_residual.py); None: form.Apply
     wall_residual: WallResidual | None = None  # the wall contact alone, paired with the form (for split)
 
     def update_wall_pairs(self, u0: GridFunction) -> None:
@@ -148,13 +150,19 @@ def _add_hinge_and_torque(
 
 
 def _add_rigid_wall(
-    form: BilinearForm, space: FemSpace, du: CoefficientFunction, force: CoefficientFunction
+    form: BilinearForm,
+    space: FemSpace,
+    du: CoefficientFunction,
+    force: CoefficientFunction,
+    active: ngs.BitArray | None = None,
 ) -> ngs.BitArray:
     """The penalty force on the head's outer boundary, assembled only on head elements that can
-    reach the block within the step (the returned BitArray, empty until the step marks them)."""
+    reach the block within the step (the returned BitArray, empty until the step marks them; or
+    `active`, shared with another form)."""
     mesh, order = space.mesh, space.scene.model.order
-    active = ngs.BitArray(mesh.GetNE(BND))
-    active.Clear()
+    if active is None:
+        active = ngs.BitArray(mesh.GetNE(BND))
+        active.Clear()
     form += (-space.scene.pendulum.thickness * InnerProduct(force, du)).Compile() * ngs.ds(
         "head", bonus_intorder=space.contact_order - 2 * order, definedonelements=active
     )
@@ -193,6 +201,13 @@ def _differentiated(builder: Builder) -> Builder:
     return build
 
 
+def discrete_gradient_points(mat: Material) -> int:
+    """Gauss points of the discrete gradient's averaged stress (docs/robustness.md): for steel one point
+    lost up to 0.5 % of the energy after violent impacts (strains ~3e-3), two: 4e-4 J of 280 J; rubber
+    at 50 % strain drifted 9 % of a pulse's work in 40 ms with two points, 0.8 % with three."""
+    return 2 if mat.E / mat.rho > 1e5 else 3
+
+
 @_differentiated
 def energy_momentum_form(space: FemSpace, inputs: StepInputs) -> StepForm:
     """Midpoint inertia, discrete-gradient stress and contact, torque at the midpoint configuration."""
@@ -204,24 +219,29 @@ def energy_momentum_form(space: FemSpace, inputs: StepInputs) -> StepForm:
     C0, C1 = material.right_cauchy_green(F0), material.right_cauchy_green(F1)
 
     def inertia_and_stress(mat: Material) -> Terms:
-        # Gauss points of the discrete gradient (docs/robustness.md): for steel one point lost up to
-        # 0.5 % of the energy after violent impacts (strains ~3e-3), two: 4e-4 J of 280 J; rubber at
-        # 50 % strain drifted 9 % of a pulse's work in 40 ms with two points, 0.8 % with three
-        dg_points = 2 if mat.E / mat.rho > 1e5 else 3
-        inertia = (2.0 / (dt * dt)) * (u - u0 - dt * v0)
-        return inertia, Fm * material.averaged_pk2_stress(C0, C1, *mat.lame, dg_points)
+        stress = Fm * material.averaged_pk2_stress(C0, C1, *mat.lame, discrete_gradient_points(mat))
+        return (2.0 / (dt * dt)) * (u - u0 - dt * v0), stress
 
     form = _bodies_form(space, du, inertia_and_stress)
     _add_hinge_and_torque(form, trial, test, inputs, Id(2) + 0.5 * (Grad(u).Trace() + Grad(u0).Trace()))
-    active = None
+    active, force = None, None
     if space.contact_on:
         pos, sc = space.pos, space.scene
         force = wall_contact.discrete_gradient_force(pos + u0, pos + u, sc.block, sc.contact.stiffness)
         active = _add_rigid_wall(form, space, du, force)
-    wall = None
+    wall, wall_residual, guard = None, None, None
     if space.wall_contact_on:
-        wall = discrete_gradient_contact(space, u0, u, du)
-    return StepForm(form, active, wall, PairGuard(space, v0, dt) if wall is not None else None)
+        wall, guard = discrete_gradient_contact(space, u0, u, du), PairGuard(space, v0, dt)
+        wall_residual = WallResidual(space, discrete_gradient_contact(space, u0, u, du))
+    contact, present = None, active
+    if force is not None:  # the rigid-wall term alone, on the same contact set, for SplitResidual
+        contact = BilinearForm(space.X)
+        _add_rigid_wall(contact, space, du, force, active)
+    elif wall_residual is not None:  # the meshed wall's term alone, applied while it has pairs
+        contact, present = wall_residual.form, wall_residual.present
+    elastic = ElasticTerms(space, discrete_gradient_points)
+    split = SplitResidual(elastic, LinearTerms(space, inputs.torque_weight), contact, present)
+    return StepForm(form, active, wall, guard, split=split, wall_residual=wall_residual)
 
 
 @_differentiated
