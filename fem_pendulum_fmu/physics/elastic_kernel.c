@@ -92,12 +92,13 @@ void femp_csr_axpy(int n, const int *indptr, const int *indices, const double *d
     }
 }
 
-/* x[free[i]] = (A^-1 b)[free[i]] from SuperLU's factors of the free block, Pr A Pc = L U (scipy's splu):
- * L unit lower and U upper, both CSC; u_diag the diagonal of U; work has n entries */
-void femp_lu_solve(int n, const int *free_dofs, const int *perm_r, const int *perm_c, const int *Lp, const int *Li,
-                   const double *Lx, const int *Up, const int *Ui, const double *Ux, const double *u_diag,
-                   const double *b, double *work, double *x) {
-    for (int i = 0; i < n; ++i) work[perm_r[i]] = b[free_dofs[i]];
+/* x[free[i]] = (A^-1 b)[free[i]] from SuperLU's factors of the free block scaled, S A S with S = diag(scale),
+ * Pr S A S Pc = L U (scipy's splu): L unit lower and U upper, both CSC; u_diag the diagonal of U; work has
+ * n entries */
+void femp_lu_solve(int n, const int *free_dofs, const double *scale, const int *perm_r, const int *perm_c,
+                   const int *Lp, const int *Li, const double *Lx, const int *Up, const int *Ui, const double *Ux,
+                   const double *u_diag, const double *b, double *work, double *x) {
+    for (int i = 0; i < n; ++i) work[perm_r[i]] = scale[i] * b[free_dofs[i]];
     for (int j = 0; j < n; ++j) {
         double yj = work[j];
         for (int k = Lp[j]; k < Lp[j + 1]; ++k)
@@ -109,7 +110,7 @@ void femp_lu_solve(int n, const int *free_dofs, const int *perm_r, const int *pe
         for (int k = Up[j]; k < Up[j + 1]; ++k)
             if (Ui[k] < j) work[Ui[k]] -= Ux[k] * yj;
     }
-    for (int i = 0; i < n; ++i) x[free_dofs[i]] = work[perm_c[i]];
+    for (int i = 0; i < n; ++i) x[free_dofs[i]] = scale[i] * work[perm_c[i]];
 }
 
 /* turn the vectors (vec[ix[i]], vec[iy[i]]) by the angle whose cosine and sine are c and s */
@@ -124,12 +125,12 @@ void femp_turn(int n, const int *ix, const int *iy, double c, double s, double *
 /* corr = Q(d) A^-1 Q(-d) res, Q(d) turning the pairs (ix, iy) by the angle d (cos d = c, sin d = s);
  * the LU arguments as femp_lu_solve's; turned is scratch of the size of res */
 void femp_turned_solve(int nturn, const int *ix, const int *iy, double c, double s, int n, const int *free_dofs,
-                       const int *perm_r, const int *perm_c, const int *Lp, const int *Li, const double *Lx,
-                       const int *Up, const int *Ui, const double *Ux, const double *u_diag, const double *res,
-                       double *turned, double *work, double *corr, int size) {
+                       const double *scale, const int *perm_r, const int *perm_c, const int *Lp, const int *Li,
+                       const double *Lx, const int *Up, const int *Ui, const double *Ux, const double *u_diag,
+                       const double *res, double *turned, double *work, double *corr, int size) {
     for (int i = 0; i < size; ++i) turned[i] = res[i];
     femp_turn(nturn, ix, iy, c, -s, turned);
-    femp_lu_solve(n, free_dofs, perm_r, perm_c, Lp, Li, Lx, Up, Ui, Ux, u_diag, turned, work, corr);
+    femp_lu_solve(n, free_dofs, scale, perm_r, perm_c, Lp, Li, Lx, Up, Ui, Ux, u_diag, turned, work, corr);
     femp_turn(nturn, ix, iy, c, s, corr);
 }
 
