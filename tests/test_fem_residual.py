@@ -100,7 +100,7 @@ def test_held_factor_solves_and_rescales(kernels: str) -> None:
     reference = spl.spsolve(a1, b)
     assert np.max(np.abs(x - reference)) <= 1e-9 * np.max(np.abs(reference))
     coeff = split.linear.inertia_coefficient
-    factor.factorise_shifted(coeff(0.4e-3) - coeff(1e-3))
+    assert factor.factorise_shifted(coeff(0.4e-3) - coeff(1e-3))
     factor.solve(b, x)
     reference = spl.spsolve(assembled(0.4e-3), b)
     assert np.max(np.abs(x - reference)) <= 1e-9 * np.max(np.abs(reference))

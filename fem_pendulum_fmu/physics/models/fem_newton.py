@@ -41,6 +41,7 @@ from .fem_space import FemSpace, FemState
 # iterations before, 23 and 6183 after (docs/fem.md, "Profile and speed-up").
 NEWTON_MAX_IT = 20
 SLOWEST_CONTRACTION = 0.5
+NEWTON_RTOL = 1e-8
 # A step size farther than this share from the held Jacobian's needs a new one (its inertia part goes as
 # 1/dt^2); closer, the contraction test decides. In contact the steps change by a few per mille each: on the
 # steel scene's impact this took 13 re-assemblies where an exact match took 40, for 2 % more residuals.
@@ -178,7 +179,7 @@ class HeldJacobianNewton:
             refresh = not self._rescale(dt)
         # the pendulum's rotation since the start of the step the held Jacobian was assembled in
         turn = 0.0 if self.held is None else self._turn.angle(xs.u) - self._turn.angle(self.held.u0)
-        last, tol = math.inf, 1e-10 * scale + 1e-15
+        last, tol = math.inf, NEWTON_RTOL * scale + 1e-15
         for it in range(NEWTON_MAX_IT):
             if refresh:
                 self._refresh(xs, dt, torque)
@@ -234,8 +235,9 @@ class HeldJacobianNewton:
         it (its stiffness part does not depend on dt); False where the form has no such term."""
         if self._inertia_coeff is None or self.held is None:
             return False
+        if not self._factor.factorise_shifted(self._inertia_coeff(dt) - self._inertia_coeff(self.held.dt)):
+            return False
         self.held.dt_factorised = dt
-        self._factor.factorise_shifted(self._inertia_coeff(dt) - self._inertia_coeff(self.held.dt))
         return True
 
     def _refresh(self, xs: FemState, dt: float, torque: float) -> None:
