@@ -64,26 +64,26 @@ def test_the_wall_face_displacement_is_read_on_the_face_elements():
 @pytest.mark.slow
 def test_gap_is_the_distance_to_the_deformed_face(impact):
     """Out of contact the gap differs from the distance to the undeformed block only by the wall's
-    displacement (measured 4.7e-8 m). The face lookup in the mesh used to return the head's own
+    displacement (measured 3.5e-8 m). The face lookup in the mesh used to return the head's own
     displacement: the gap read -1.2e-5 m with the head 4.7 mm away."""
     _, rows, _, _ = impact
     apart = rows[:, 2] > 1e-6  # the head clear of the undeformed block by more than the wall moves
     assert np.count_nonzero(apart) > 80
     assert np.all(rows[apart, 1] > 0.0)
     assert np.max(np.abs(rows[apart, 1] - rows[apart, 2])) < 1e-6
-    assert rows[:, 1].min() < -2e-5  # and the head does reach into the wall (measured -5.1e-5 m)
+    assert rows[:, 1].min() < -2e-5  # and the head does reach into the wall (measured -5.6e-5 m)
 
 
 @pytest.mark.slow
 def test_energy_balances_during_contact(impact):
-    """E - E0 - W during the impact stays within 3e-3 of the swing energy: measured 1.4e-3 (the wall
-    face's Gauss points enter and leave contact within a step, with pairs fixed at its start), and
-    3.5e-4 after it. The contact energy counted on the head's points instead of the step form's wall
-    face points read up to 2.4e-2 on this mesh (and 6 % on the finest order-3 one)."""
+    """E - E0 - W during the impact stays within 1e-3 of the swing energy: measured 3.1e-4, and 6.0e-5
+    after it (the pairs found anew at each step's start, docs/fem.md "Deformable wall"). The midpoint
+    contact force, inexact for face points entering the contact within a step, gave 1.1e-3; the old
+    outputs (contact energy on the head's points against a mislocated face) 8.1e-2."""
     _, rows, _, _ = impact
     touching = rows[:, 3] > 0.0
     assert np.count_nonzero(touching) >= 4  # the window covers the impact
-    assert np.max(np.abs(rows[:, 4])) < 3e-3
+    assert np.max(np.abs(rows[:, 4])) < 1e-3
     assert np.max(np.abs(rows[~touching & (rows[:, 0] < 0.2385), 4])) < 1e-7  # before it: the Newton floor
 
 
