@@ -35,7 +35,7 @@ import numpy as np
 
 from .. import rigid_contact
 from ..contact_time import ClosestPoint, contact_time_scale, effective_mass
-from ..modes import HEAD_RULE_ORDER, ModalBasis, modal_basis
+from ..modes import ModalBasis, modal_basis
 from ..protocol import BodyField, ModelState, Outputs, last_advance_scalars, restore_last_advance, restored_min_gap
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
@@ -53,6 +53,7 @@ SCALE_BAND = (
     0.02  # m: contact scales consider head points at most this far behind the closest (penetrations are < 2 mm)
 )
 FAR_GAP = 0.01  # m: beyond this the stepper sees the head's bounding circle instead of every point
+HEAD_GROUP = 8  # head points per run of the gap's and contact's exclusion test
 STALL_TOL = 1e-9  # if Newton stalls at round-off, an imbalance up to this is still accepted
 
 _J = np.array([[0.0, -1.0], [1.0, 0.0]])
@@ -155,16 +156,18 @@ class ReducedModel(SteppedModel[tuple]):
         self.last_min_gap = self._outputs.gap
 
     def _group_head_points(self, b: ModalBasis) -> None:
-        """The head points by boundary element (the quadrature rule's points are consecutive), with each
-        element's centre, radius and largest displacement per mode, for _near_points."""
-        per_element = HEAD_RULE_ORDER // 2 + 1
-        count = len(b.head_X) // per_element if len(b.head_X) % per_element == 0 else 1
-        self._element_points = np.arange(len(b.head_X)).reshape(count, -1)
-        X = b.head_X[self._element_points]  # (E, k, 2)
-        self._element_centre = X.mean(axis=1)
-        self._element_radius = np.max(np.linalg.norm(X - self._element_centre[:, None, :], axis=2), axis=1)
-        self._element_peak = np.max(np.linalg.norm(b.head_phi[self._element_points], axis=2), axis=1)  # (E, m)
+        """The head points in runs of about HEAD_GROUP consecutive points (neighbours on the boundary),
+        with each run's centre, radius and largest displacement per mode, for _candidates."""
+        P = len(b.head_X)
+        runs = np.array_split(np.arange(P), max(1, P // HEAD_GROUP))
+        self._group_of_point = np.concatenate([np.full(len(r), k) for k, r in enumerate(runs)])
+        self._group_centre = np.array([b.head_X[r].mean(axis=0) for r in runs])
+        self._group_radius = np.array(
+            [np.max(np.linalg.norm(b.head_X[r] - c, axis=1)) for r, c in zip(runs, self._group_centre, strict=True)]
+        )
+        self._group_peak = np.array([np.max(np.linalg.norm(b.head_phi[r], axis=1), axis=0) for r in runs])  # (runs, m)
         self._head_X = b.head_X
+        self._head_phi_pairs = b.head_phi.reshape(P, -1)  # (P, 2m): a point's x row, then its y row
         self._head_phi_rows = b.head_phi  # (P, 2, m)
 
     # ---------------------------------------------------------------- energies
@@ -569,26 +572,26 @@ class ReducedModel(SteppedModel[tuple]):
 
     def _near_points(self, z: np.ndarray, band: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(indices, positions (k, 2), signed distances to the block (k,)) of the head points, in their
-        order, leaving out only whole boundary elements certainly more than `band` farther from the
-        block than the closest point."""
+        order, leaving out only runs of points certainly more than `band` farther from the block than
+        the closest point."""
         points, world = self._candidates(z, band, None)
         return points, world, self._signed_distances(world)
 
     def _candidates(self, z: np.ndarray, band: float, cutoff: float | None) -> tuple[np.ndarray, np.ndarray]:
-        """(indices, positions (k, 2)) of the head points of the boundary elements that may have a point
-        within `cutoff` of the block (default: within `band` of the closest point). The distance is
-        1-Lipschitz, so an element whose centre is d from the block has its points within d +- (its
+        """(indices, positions (k, 2)) of the head points in the runs (_group_head_points) that may have
+        a point within `cutoff` of the block (default: within `band` of the closest point). The distance
+        is 1-Lipschitz, so a run whose centre is d from the block has its points within d +- (its
         radius + its largest modal displacement)."""
         s, c = math.sin(z[0]), math.cos(z[0])
         rotation = np.array([[c, s], [-s, c]])
         q = z[1:]
-        reach = self._element_radius + self._element_peak @ np.abs(q)
-        centre_gap = self._signed_distances(self._element_centre @ rotation)
+        reach = self._group_radius + self._group_peak @ np.abs(q)
+        centre_gap = self._signed_distances(self._group_centre @ rotation)
         if cutoff is None:
             cutoff = float(np.min(centre_gap + reach)) + band
-        points = self._element_points[np.flatnonzero(centre_gap - reach <= cutoff)].ravel()
-        local = self._head_X[points] + self._head_phi_rows[points] @ q
-        return points, local @ rotation
+        points = np.flatnonzero((centre_gap - reach <= cutoff)[self._group_of_point])
+        displacement = (self._head_phi_pairs[points].reshape(-1, self.m) @ q).reshape(-1, 2)
+        return points, (self._head_X[points] + displacement) @ rotation
 
     def _signed_distances(self, world: np.ndarray) -> np.ndarray:
         """Signed distances of points (k, 2) to the block, as contact.box_signed_distance computes them."""
