@@ -9,8 +9,12 @@
   ContactBoundary counts them (penalty on the gap at the wall face's Gauss
   points, each paired with its closest head point), so that the reported
   energy balances during contact too;
-(fem_head.py's `PairGuard` tells when the head is too far from the wall for
-any pair, so that the step form's pairs need no update.)
+* `discrete_gradient_contact`: the energy-momentum step's contact force, the
+  exact discrete gradient of that energy for the pairs of the step start;
+* `WallResidual`: that contact term alone, for the split residual of
+  fem_residual.py.
+(fem_head.py's `PairGuard` gives the pairing radius a step needs: none while
+the head cannot reach the wall within the step.)
 """
 
 from __future__ import annotations
@@ -23,14 +27,14 @@ from ngsolve import BND, CF, InnerProduct, specialcf
 from .. import contact as wall_contact
 from .fem_space import FemSpace
 
-WALL_SEARCH_DISTANCE = 0.005  # m; ContactBoundary pairing radius
+WALL_SEARCH_DISTANCE = 0.005  # m; the largest ContactBoundary pairing radius
 WALL_CONTACT_INTORDER = 6  # Gauss rule on the wall face's elements (4 points at order 6)
 # a head sampled this far clear of the deformed face leaves every penalty integrand 0 (sagitta < 1 um)
 CLEAR_OF_FACE = 1e-5  # m
 # pairing radius of an update that must leave no pairs (0 would mean NGSolve's default, 2 element sizes)
 NO_PAIRS = 1e-12  # m
 # head points farther from the face than this have the undeformed face's distance as their gap: the wall
-# moves by a few um (4.7e-8 m out of contact, tests/test_deformable_wall.py), the gap there is > 1 cm
+# moves by a few um (3.5e-8 m out of contact, tests/test_deformable_wall.py), the gap there is > 1 cm
 SHIFT_RANGE = 0.01  # m
 
 
@@ -67,8 +71,8 @@ def discrete_gradient_contact(
     """The energy-momentum step's wall contact: with the pairs of the step start the gap g is affine in
     the displacement, so the force (Phi(g1) - Phi(g0)) / (g1 - g0) dg is the exact discrete gradient of
     the penalty energy, also for the wall face's Gauss points that enter or leave contact within the step
-    (the midpoint force Phi'(gm) is exact only while a point stays in contact: it lost 1e-3 of the swing
-    energy at each entry on the coarse mesh, tests/test_deformable_wall.py)."""
+    (the midpoint force Phi'(gm) is exact only while a point stays in contact: the energy gained 1e-3 of
+    the swing energy as the points entered on the coarse mesh, tests/test_deformable_wall.py)."""
     mesh, pos, n = space.mesh, space.pos, specialcf.normal(2)
     h, k = space.scene.pendulum.thickness, space.scene.contact.stiffness
     cb = ngs.ContactBoundary(mesh.Boundaries("wall_face"), mesh.Boundaries("head"))
