@@ -128,10 +128,11 @@ class HeadBoundary:
 
 
 class PairGuard:
-    """The pairing radius a step needs: the reach of the step, 3 times the fastest point's speed times
-    the step (as for the rigid wall's contact set) plus PAIR_MARGIN, plus the head's depth in the wall
-    (a wall point inside the head is that close to it); 0 when the head is farther from the face than
-    its reach, as no pair could then act within the step."""
+    """The pairing radius a step needs: the reach of the step, 3 times the largest velocity coefficient
+    of the start state (the nodal velocities of pendulum and wall) times the step (as for the rigid
+    wall's contact set) plus PAIR_MARGIN, plus the head's depth in the wall (a wall point inside the
+    head is that close to it); 0 when the head is farther from the face than its reach, as no pair could
+    then act within the step."""
 
     def __init__(self, space: FemSpace, v0: ngs.GridFunction, dt: ngs.Parameter):
         head = head_points(space.mesh, space.contact_order)
