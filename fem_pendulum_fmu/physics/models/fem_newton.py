@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import ngsolve as ngs
 import numpy as np
@@ -237,7 +237,8 @@ class HeldJacobianNewton:
             return False
         if not self._factor.factorise_shifted(self._inertia_coeff(dt) - self._inertia_coeff(self.held.dt)):
             return False
-        self.held.dt_factorised = dt
+        # a new point, not a changed one: a failed advance puts back the one from before (FemModel.advance)
+        self.held = replace(self.held, dt_factorised=dt)
         return True
 
     def _refresh(self, xs: FemState, dt: float, torque: float) -> None:
