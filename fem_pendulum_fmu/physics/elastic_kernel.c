@@ -157,3 +157,18 @@ double femp_min_det(int q, const int *indptr, const int *indices, const double *
     }
     return smallest;
 }
+
+/* sum over the Q points of weight psi(C), psi the Neo-Hookean energy of material.py */
+double femp_strain_energy(int q, const int *indptr, const int *indices, const double *data, int nS, const double *u,
+                          const double *weights, double lam, double mu) {
+    double total = 0.0;
+    for (int p = 0; p < q; ++p) {
+        double g[4];
+        gradients_at(p, q, indptr, indices, data, nS, u, g);
+        double f00 = 1.0 + g[0], f01 = g[1], f10 = g[2], f11 = 1.0 + g[3];
+        double c00 = f00 * f00 + f10 * f10, c01 = f00 * f01 + f10 * f11, c11 = f01 * f01 + f11 * f11;
+        double log_j = 0.5 * log(c00 * c11 - c01 * c01);
+        total += weights[p] * (0.5 * mu * (c00 + c11 - 2.0 - 2.0 * log_j) + 0.5 * lam * log_j * log_j);
+    }
+    return total;
+}

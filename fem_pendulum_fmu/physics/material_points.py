@@ -39,3 +39,10 @@ def first_piola(F: np.ndarray, S: np.ndarray) -> np.ndarray:
     f00, f01, f10, f11 = F
     s00, s01, s11 = S
     return np.stack((f00 * s00 + f01 * s01, f00 * s01 + f01 * s11, f10 * s00 + f11 * s01, f10 * s01 + f11 * s11))
+
+
+def energy_density(C: np.ndarray, lam: float, mu: float) -> np.ndarray:
+    """psi(C) of material.energy_density at the points of C (symmetric (3, Q))."""
+    c00, c01, c11 = C
+    log_j = 0.5 * np.log(c00 * c11 - c01 * c01)
+    return 0.5 * mu * (c00 + c11 - 2.0 - 2.0 * log_j) + 0.5 * lam * log_j * log_j

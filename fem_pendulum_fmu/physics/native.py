@@ -43,8 +43,9 @@ SIGNATURES = {
     "femp_turned_solve": (_I, _P, _P, _D, _D, _I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _I),
     "femp_update": (_I, _I, _P, _P),
     "femp_min_det": (_I, _P, _P, _P, _I, _P),
+    "femp_strain_energy": (_I, _P, _P, _P, _I, _P, _P, _D, _D),
 }
-RESULTS = {"femp_update": ctypes.c_double, "femp_min_det": ctypes.c_double}
+RESULTS = {name: ctypes.c_double for name in ("femp_update", "femp_min_det", "femp_strain_energy")}
 
 
 def _compiler() -> str | None:

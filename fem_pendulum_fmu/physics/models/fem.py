@@ -63,9 +63,10 @@ class FemModel:
         self.inputs = step_inputs(self.space)
         self.form = self.scheme.build(self.space, self.inputs)
         self.head = HeadBoundary(self.space)
-        self.measures = FemOutputs(self.space, self.inputs, self.head)
-        turn = Turn(self.space, self.measures.rotation_angle)
         split = self.form.split
+        strain = None if split is None else split.elastic.strain_energy
+        self.measures = FemOutputs(self.space, self.inputs, self.head, strain)
+        turn = Turn(self.space, self.measures.rotation_angle)
         residual = split or self.form.form.Apply
         inertia = None if split is None else (split.linear.mass, split.linear.inertia_coefficient)
         self.newton = HeldJacobianNewton(

@@ -34,7 +34,7 @@ from ..scene import Material
 from .fem_space import FemSpace
 
 
-def _scipy(mat: ngs.BaseMatrix) -> sp.csr_matrix:
+def scipy_matrix(mat: ngs.BaseMatrix) -> sp.csr_matrix:
     """The matrix in scipy's CSR form, with the int32 indices the kernel reads."""
     rows, cols, vals = mat.COO()
     csr = sp.csr_matrix((np.array(vals), (np.array(rows), np.array(cols))), shape=(mat.height, mat.width))
@@ -60,9 +60,9 @@ class LinearTerms:
         torque_rest = LinearForm(-InnerProduct(torque_weight * N, du) * ngs.ds("hinge"))
         torque_grad = BilinearForm(-InnerProduct(torque_weight * (Cof(Grad(u).Trace()) * N), du) * ngs.ds("hinge"))
         self._lib = native.kernels()
-        self.mass = _scipy(mass.Assemble().mat)
-        self.hinge = _scipy(hinge.Assemble().mat)
-        self.torque_grad = _scipy(torque_grad.Assemble().mat)
+        self.mass = scipy_matrix(mass.Assemble().mat)
+        self.hinge = scipy_matrix(hinge.Assemble().mat)
+        self.torque_grad = scipy_matrix(torque_grad.Assemble().mat)
         self._args = [
             (m.shape[0], m.indptr.ctypes.data, m.indices.ctypes.data, m.data.ctypes.data)
             for m in (self.mass, self.hinge, self.torque_grad)
@@ -257,6 +257,22 @@ class ElasticTerms:
             f00, f01, f10, f11 = self._deformation_gradient(b.rule, u)
             dets.append(float(np.min(f00 * f11 - f01 * f10)))
         return min(dets)
+
+    def strain_energy(self, u: np.ndarray) -> float:
+        """The strain energy of the displacement u, integrated by the rule of the stress term: over a step
+        its change is what the discrete-gradient stress does as work (material.averaged_pk2_stress)."""
+        if self._lib is not None:
+            u = np.ascontiguousarray(u, dtype=float)
+            at = u.ctypes.data
+            return sum(
+                self._lib.femp_strain_energy(*head, at, b.rule.weights.ctypes.data, b.lam, b.mu)
+                for (head, _), b in zip(self._args, self._bodies, strict=True)
+            )
+        total = 0.0
+        for b in self._bodies:
+            C = points.right_cauchy_green(self._deformation_gradient(b.rule, u))
+            total += float(b.rule.weights @ points.energy_density(C, b.lam, b.mu))
+        return total
 
     def _add_numpy(self, b: _Body, u: np.ndarray, out: np.ndarray) -> None:
         nS, F0 = self.nS, b.F0.T
