@@ -125,7 +125,7 @@ def test_a_master_restores_and_retries_with_smaller_steps(fmus, tmp_path):
 BAD_PARAMETERS = [
     ("pendulum.E", 0.0, "(0, inf)"),
     ("pendulum.thickness", -0.01, "(0, inf)"),
-    ("model.order", 0, "[2, 5]"),
+    ("model.order", 1, "[2, 5]"),
     ("model.order", 10, "[2, 5]"),
     ("wall.kind", 7, "choose one of 1 (rigid)"),
     ("model.fidelity", 9, "choose one of 1 (auto)"),

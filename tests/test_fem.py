@@ -21,7 +21,7 @@ import pytest
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
 from fem_pendulum_fmu.physics.models import create
 from fem_pendulum_fmu.physics.protocol import ModelState
-from fem_pendulum_fmu.physics.scene import compliant, stiff
+from fem_pendulum_fmu.physics.scene import compliant, stiff, validate
 from fem_pendulum_fmu.physics.swing import peaks_after_first_contact
 
 G = 9.81
@@ -198,7 +198,7 @@ def test_bad_advance_arguments_leave_the_state_unchanged():
         ("pendulum.nu", 0.5, r"\[0, 0.5\)"),
         ("pendulum.E", 0.0, r"\(0, inf\)"),
         ("pendulum.thickness", -0.01, r"\(0, inf\)"),
-        ("model.order", 0, r"\[2, 5\]"),
+        ("model.order", 1, r"\[2, 5\]"),
         ("model.order", 10, r"\[2, 5\]"),
         ("contact.stiffness", float("nan"), "finite"),
         ("model.mesh_size", 0.0, r"\(0, 0.1\]"),
@@ -235,3 +235,13 @@ def test_von_mises_only_when_asked_and_plausible():
     # (rho g L = 2.9 kPa with L = 0.3 m, pivot to the bottom of the head); measured 3143 Pa at 0.01 s
     assert b.von_mises_max == pytest.approx(3143.0, rel=0.05), b.von_mises_max
     assert b.theta == a.theta  # asking for stress does not change the dynamics
+
+
+def test_element_order_follows_the_material_unless_set():
+    """model.order 0 (auto, the default): order 3 for a soft pendulum, 2 for a stiff one; set, it stays."""
+    rubber = {"pendulum.E": 1e6, "pendulum.nu": 0.45, "pendulum.rho": 1000.0}
+    assert validate(stiff()).model.order == 2
+    assert validate(stiff(**rubber)).model.order == 3
+    assert validate(compliant()).model.order == 3
+    assert validate(stiff(**rubber, **{"model.order": 2})).model.order == 2
+    assert validate(stiff(**{"model.order": 4})).model.order == 4

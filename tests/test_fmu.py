@@ -479,3 +479,21 @@ def test_auto_fidelity_is_logged_and_runs_the_model_it_names(fmus, tmp_path):
     assert auto.get("energy.strain")[0] > 1e-3
     auto.close()
     reduced.close()
+
+
+@pytest.mark.slow
+@isolated
+def test_rubber_parameters_get_the_element_order_of_the_rubber_preset(fmus, tmp_path):
+    """model.order left at 0 (auto): a rubber pendulum set through the FMU runs on order-3 elements, as the
+    compliant preset does, and the FMI log says so; an explicit order is kept."""
+    fmu, _ = fmus
+    rubber = {"pendulum.E": 1e6, "pendulum.nu": 0.45, "pendulum.rho": 1000.0, "contact.stiffness": 5e9}
+    auto = Instance(fmu, "auto", **rubber)
+    assert any("model.order = 0 (auto) picked 3" in m for m in auto.messages), auto.messages
+    three = Instance(fmu, "three", **rubber, **{"model.order": 3})
+    two = Instance(fmu, "two", **rubber, **{"model.order": 2})
+    for _ in range(10):
+        for inst in (auto, three, two):
+            inst.step(1e-3, 0.5)
+    assert auto.get("theta", "gap") == three.get("theta", "gap")
+    assert auto.get("theta") != two.get("theta")

@@ -39,6 +39,12 @@ class WallBlock:
     y_max: float = -0.115
 
 
+# E / rho (m^2/s^2) at or under which a body is soft: it strains by tens of per cent where a stiff one
+# strains by 1e-6 (rubber 1e3, steel 2.7e7); the FE model's element order, discrete gradient and energy
+# guard and the reduced model's strain energy follow it
+SOFT_LIMIT = 1e5
+
+
 @dataclass(frozen=True)
 class Material:
     E: float = 2.1e11
@@ -50,6 +56,11 @@ class Material:
     def lame(self) -> tuple[float, float]:
         """Plane-stress Lame parameters (lambda*, mu)."""
         return self.E * self.nu / (1.0 - self.nu**2), self.E / (2.0 * (1.0 + self.nu))
+
+    @property
+    def soft(self) -> bool:
+        """E / rho <= SOFT_LIMIT."""
+        return self.E / self.rho <= SOFT_LIMIT
 
 
 @dataclass(frozen=True)
@@ -69,7 +80,7 @@ class Contact:
 class ModelSettings:
     fidelity: str = "fem"
     mesh_size: float = 0.03
-    order: int = 2
+    order: int = 0  # AUTO_ORDER: element_order() picks it
     compute_stress: bool = False
     threads: int = 1  # NGSolve TaskManager threads; 1 keeps results bit-identical
     modes: int = 6  # elastic modes of the reduced fidelity
@@ -101,6 +112,19 @@ class Scene:
         return replace_path(self, values)
 
 
+AUTO_ORDER = 0
+SOFT_ORDER, STIFF_ORDER = 3, 2
+
+
+def element_order(scene: Scene) -> int:
+    """model.order, or for 0 (auto) the order the pendulum's material needs: order 2 puts a rubber
+    pendulum's gap 3 mm off through an impact, order 3 within 1 mm (benchmarks/mesh_study.py, docs/fem.md);
+    for steel order 2 is within 0.5 % of order 3 at a third of the cost."""
+    if scene.model.order != AUTO_ORDER:
+        return scene.model.order
+    return SOFT_ORDER if scene.pendulum.soft else STIFF_ORDER
+
+
 def stiff(**values: Any) -> Scene:
     """Steel pendulum (the default scene)."""
     return Scene().with_values(_dotted(values))
@@ -109,12 +133,10 @@ def stiff(**values: Any) -> Scene:
 def compliant(**values: Any) -> Scene:
     """Rubber-like pendulum: E 1 MPa, nu 0.45, rho 1000, k 5e9 Pa/m.
 
-    Order-3 elements: the coarsest discretisation whose angle and gap stay
-    within 0.5 degree and 1 mm of a fine reference through an impact
+    model.order auto (element_order) gives it order-3 elements: the coarsest discretisation whose angle
+    and gap stay within 0.5 degree and 1 mm of a fine reference through an impact
     (benchmarks/mesh_study.py --preset compliant, docs/fem.md)."""
-    base = Scene(
-        pendulum=Material(E=1e6, nu=0.45, rho=1000.0), contact=Contact(stiffness=5e9), model=ModelSettings(order=3)
-    )
+    base = Scene(pendulum=Material(E=1e6, nu=0.45, rho=1000.0), contact=Contact(stiffness=5e9))
     return base.with_values(_dotted(values))
 
 
@@ -171,7 +193,6 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
     "solver.tolerance": (1e-8, 0.1, True, True),
 }
 _INT_RANGES = {
-    "model.order": (2, 5),
     "model.threads": (1, 64),
     "model.modes": (1, 200),  # order 1: see docs/fem.md
     "solver.max_substeps": (0, 10**9),
@@ -184,7 +205,8 @@ def _interval(lo: float, hi: float, lo_in: bool, hi_in: bool) -> str:
 
 
 def validate(scene: Scene) -> Scene:
-    """Check every parameter; raise ValueError naming the first bad one. Returns the scene."""
+    """Check every parameter; raise ValueError naming the first bad one. Returns the scene with
+    model.order resolved (element_order): every model is built from what this returns."""
     for name, (lo, hi, lo_in, hi_in) in _RANGES.items():
         value = get_path(scene, name)
         ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
@@ -199,6 +221,13 @@ def validate(scene: Scene) -> Scene:
         value = get_path(scene, name)
         if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
             raise ValueError(f"parameter {name} = {value!r} is out of range: allowed is an integer in [{lo}, {hi}]")
+    order = scene.model.order
+    if isinstance(order, bool) or not isinstance(order, int) or not (order == AUTO_ORDER or 2 <= order <= 5):
+        raise ValueError(
+            f"parameter model.order = {order!r} is out of range: allowed is an integer in [2, 5], "
+            f"or {AUTO_ORDER} (auto: {SOFT_ORDER} for a soft pendulum, E / rho <= {SOFT_LIMIT:g} m^2/s^2, "
+            f"else {STIFF_ORDER})"
+        )
     for name, choices in _CHOICES.items():
         value = get_path(scene, name)
         if value not in choices:
@@ -210,6 +239,7 @@ def validate(scene: Scene) -> Scene:
             f"parameter solver.scheme = {scene.solver.scheme!r} is an option of the fem fidelity only: "
             f"set model.fidelity = fem (it is {scene.model.fidelity!r}) or solver.scheme = energy_momentum"
         )
+    scene = scene.with_values({"model.order": element_order(scene)})
     if scene.model.fidelity != "rigid":  # the rigid fidelity meshes nothing with these settings
         need, have = mesh_memory_estimate(scene), physical_memory()
         if need > have:

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import logging
+
 from ..protocol import ModelState, Outputs, PendulumModel, StepFailed
-from ..scene import Scene, validate
+from ..scene import AUTO_ORDER, Scene, element_order, validate
+
+LOG = logging.getLogger("fem_pendulum_fmu")
 
 AVAILABLE = ("rigid", "reduced", "fem")
 
@@ -17,7 +21,9 @@ def resolve_fidelity(scene: Scene) -> str:
 
 def create(scene: Scene) -> PendulumModel:
     """Validate the scene and build the model it asks for."""
-    validate(scene)
+    if scene.model.order == AUTO_ORDER:
+        LOG.info("model.order = %d (auto) picked %d for this material", AUTO_ORDER, element_order(scene))
+    scene = validate(scene)
     fidelity = resolve_fidelity(scene)
     if fidelity not in AVAILABLE:
         raise ValueError(

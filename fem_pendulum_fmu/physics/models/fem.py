@@ -55,7 +55,7 @@ class FemModel:
     fidelity = "fem"
 
     def __init__(self, scene: Scene, refine_like_seed: bool = False):
-        self.scene = validate(scene)
+        self.scene = scene = validate(scene)  # with model.order resolved
         ngs.SetNumThreads(scene.model.threads)
         self.control = StepControl.for_scene(scene)
         self.space = fem_space(scene, refine_like_seed)
