@@ -86,7 +86,7 @@ def modal_key(scene: Scene) -> dict:
         "geometry": asdict(scene.geometry),
         "pendulum": asdict(scene.pendulum),
         "mesh_size": scene.model.mesh_size,
-        "order": scene.model.order,
+        "order": element_order(scene),
         "modes": scene.model.modes,
         "head_rule": HEAD_RULE_ORDER,
         "patches": CONTACT_PATCHES,
@@ -149,14 +149,24 @@ def hinged_eigenmodes(K: csr_matrix, M: csr_matrix, C: csr_matrix, count: int) -
     return values[order], vectors[:n, order]
 
 
+def element_order(scene: Scene) -> int:
+    """The FE model's element order for the scene: scene.element_order where the scene module picks it
+    (model.order 0 = auto, by the material), model.order itself otherwise."""
+    from . import scene as scene_module
+
+    pick = getattr(scene_module, "element_order", None)
+    return int(pick(scene)) if pick is not None else scene.model.order
+
+
 def fe_space(scene: Scene) -> tuple[Mesh, FESpace]:
     """(mesh, displacement space) of the pendulum alone, as the FE model discretises it."""
     from ngsolve import VectorH1
 
     from .geometry import make_mesh
 
-    mesh = make_mesh(scene.geometry, scene.model.mesh_size, scene.model.order)
-    return mesh, VectorH1(mesh, order=scene.model.order)
+    order = element_order(scene)
+    mesh = make_mesh(scene.geometry, scene.model.mesh_size, order)
+    return mesh, VectorH1(mesh, order=order)
 
 
 def _scipy(matrix: BaseMatrix) -> csr_matrix:

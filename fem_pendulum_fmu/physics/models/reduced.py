@@ -60,14 +60,10 @@ _J = np.array([[0.0, -1.0], [1.0, 0.0]])
 
 
 def strain_energy(scene: Scene, basis: ModalBasis) -> LinearStrain | NeoHookeanStrain:
-    """The scene's strain energy: quadratic (stiff bodies), or Neo-Hookean on the hyper-reduced
-    quadrature points (soft ones, reduced_ecsw.py)."""
+    """The scene's strain energy: quadratic (stiff bodies) or Neo-Hookean (soft ones)."""
     if uses_linear_strain(scene):
         return LinearStrain(basis.omega2)
-    from .reduced_ecsw import cached_fit
-
-    full = NeoHookeanStrain(scene, basis.phi, basis.omega2)
-    return full.restricted(*cached_fit(scene, basis, full))
+    return NeoHookeanStrain(scene, basis.phi, basis.omega2)
 
 
 class _StepStart(NamedTuple):

@@ -7,8 +7,6 @@ assembly.
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 
 from ..scene import Scene
@@ -51,10 +49,10 @@ class NeoHookeanStrain:
     def __init__(self, scene: Scene, phi: np.ndarray, omega2: np.ndarray):
         import ngsolve as ngs
 
-        from ..modes import fe_space
+        from ..modes import element_order, fe_space
 
         mesh, V = fe_space(scene)
-        rule = ngs.IntegrationRule(ngs.TRIG, 2 * scene.model.order)
+        rule = ngs.IntegrationRule(ngs.TRIG, 2 * element_order(scene))
         points = mesh.MapToAllElements(rule, ngs.VOL)
         jac_det = ngs.Det(ngs.specialcf.JacobianMatrix(2))(points).ravel()
         self._weights = scene.pendulum.thickness * np.abs(jac_det) * np.tile([ip.weight for ip in rule], mesh.ne)
@@ -68,35 +66,6 @@ class NeoHookeanStrain:
         self._lam, self._mu = scene.pendulum.lame
         self._mu_gram = self._mu * (self._G.T @ (np.repeat(self._weights, 4)[:, None] * self._G))
         self.linear_hessian = np.diag(omega2)  # the tangent at q = 0
-
-    @property
-    def weights(self) -> np.ndarray:
-        """(P,) the quadrature weights (area times thickness)."""
-        return self._weights
-
-    def restricted(self, points: np.ndarray, weights: np.ndarray) -> NeoHookeanStrain:
-        """The same energy integrated over a subset of the points with new weights (reduced_ecsw.py)."""
-        other = copy.copy(self)
-        G = self._G.reshape(len(self._weights), 4, -1)[points]
-        other._G = G.reshape(-1, G.shape[-1])
-        other._weights = np.asarray(weights, dtype=float)
-        other._mu_gram = self._mu * (other._G.T @ (np.repeat(other._weights, 4)[:, None] * other._G))
-        return other
-
-    def jacobians(self, q: np.ndarray) -> np.ndarray:
-        """det F at every point."""
-        return self._kinematics(q)[1]
-
-    def point_terms(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """((P, m) each point's weighted contribution to the gradient, (P,) and to the energy)."""
-        F, J = self._kinematics(q)
-        inv, log_j = self._inverse_and_log(F, J)
-        inv_t = inv.transpose(0, 2, 1)
-        P = self._mu * (F - inv_t) + (self._lam * log_j)[:, None, None] * inv_t
-        n = len(J)
-        forces = np.matmul((self._weights[:, None] * P.reshape(n, 4))[:, None, :], self._G.reshape(n, 4, -1))
-        density = 0.5 * self._mu * (np.einsum("pij,pij->p", F, F) - 2.0 - 2.0 * log_j) + 0.5 * self._lam * log_j**2
-        return forces.reshape(n, -1), self._weights * density
 
     def _kinematics(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         F = (self._G @ q).reshape(-1, 2, 2)
