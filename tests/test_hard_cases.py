@@ -42,12 +42,14 @@ ENERGY = {
     "rubber_pulse": {"fem": 1e-2},  # strain increments ~0.1 per step; the energy guard holds each step to 1e-3
     "deformable_wall": {"fem": 5e-3},  # contact pairs fixed at the step start: entry and exit approximate
 }
-# internal steps per simulated ms: free flight 0.5 (2 ms steps) plus 29 steps per contact duration
+# internal steps per simulated ms: free flight 0.5 (2 ms steps) plus 29 steps per contact duration;
+# a held contact takes free-flight steps after three contact durations (stepping.py): the resting case
+# measured 1.09 (fem) to 1.55 (reduced) per ms over 0.3 s in 1 ms doSteps (docs/robustness.md)
 STEPS_PER_MS = {
     "high_speed": 40,
     "large_steps": 2,
     "violent": 5,
-    "resting": 60,
+    "resting": 3,
     "grazing": 2,
     "at_rest": 2,
     "rubber_pulse": 40,
@@ -204,22 +206,28 @@ def test_violent_square_wave_torque_over_the_top(fmus, fidelity):
 
 
 # ------------------------------------------------------------------------------ 4. resting contact
+RESTING_FORCE = 5e-3  # mean contact force (impulse over time) / (|T| / D): measured within 1.4e-3 over 0.3 s
+
+
 def resting(fidelity):
-    return {**COARSE, **STALL_GUARD, "model.fidelity": fidelity, "theta0": 0.0}, [(1e-4, -5.0)] * 300
+    return {**COARSE, **STALL_GUARD, "model.fidelity": fidelity, "theta0": 0.0}, [(1e-3, -5.0)] * 300
 
 
 @pytest.mark.parametrize("fidelity", RIGID_WALL)
 def test_resting_contact_under_constant_torque(fmus, fidelity):
-    """-5 N.m from rest touching the wall (steel, no damping): the contact force's mean over 30 ms
-    is the torque's reaction |T| / D within 1 %; the undamped normal oscillation stays bounded and
-    the head does not leave the wall by more than the rod's bending deflection under the torque."""
+    """-5 N.m from rest touching the wall (steel, no damping), 0.3 s in 1 ms doSteps: the held contact
+    takes free-flight steps (at most 3 per ms, check_common), and still the mean contact force, the
+    contact impulse over the run's time, is the torque's reaction |T| / D within 0.5 %; the undamped
+    normal vibration stays bounded and the head does not leave the wall by more than the rod's
+    bending deflection under the torque."""
     params, schedule = resting(fidelity)
     runs = run_schedule(fmus[0], params, schedule, repeat=2)
     check_common("resting", fidelity, runs)
     run = runs[0][1:]
     scene = stiff()
     reaction = 5.0 / scene.geometry.head_centre_depth  # the head touches level with its centre
-    force = col(run, "contact_force")
+    mean_force = float(np.sum(col(run, "contact_impulse")) / col(run, "time")[-1])
+    force = col(run, "contact_force")  # samples of the vibration, which held steps do not resolve
     half = len(force) // 2
     w, E, h = scene.geometry.rod_half_width, scene.pendulum.E, scene.pendulum.thickness
     length = scene.geometry.head_centre_depth - scene.geometry.head_radius
@@ -227,13 +235,14 @@ def test_resting_contact_under_constant_torque(fmus, fidelity):
     record(
         case="resting",
         fidelity=fidelity,
-        mean_force_ratio=float(force.mean() / reaction),
+        mean_force_ratio=mean_force / reaction,
+        sampled_force_ratio=float(force.mean() / reaction),
         max_force_ratio=float(force.max() / reaction),
         growth=float(force[half:].max() / force[:half].max()),
         max_gap=float(col(run, "gap").max()),
         bound_gap=lift_off,
     )
-    assert abs(force.mean() / reaction - 1.0) < 0.01, force.mean() / reaction
+    assert abs(mean_force / reaction - 1.0) < RESTING_FORCE, mean_force / reaction
     assert force.max() < 10.0 * reaction and force[half:].max() < 1.5 * force[:half].max()
     assert col(run, "gap").max() <= (1e-12 if fidelity == "rigid" else lift_off)
 

@@ -41,6 +41,9 @@ class Outputs:
     min_gap: float = math.nan  # smallest gap at the internal steps of the last advance; nan = not reported
     contact_force_max: float = 0.0  # largest contact force at the internal steps of the last advance (N)
     contact_impulse: float = 0.0  # |sum over those steps of the scheme's contact force times the step| (N.s)
+    # the contact's hold at the end of the last advance (s): time in contact less time out of it since it
+    # began, as the stepper counts it (stepping.py: a contact held longer than an impact takes larger steps)
+    contact_hold: float = 0.0
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
@@ -131,10 +134,11 @@ class PendulumModel(Protocol):
 
 
 def check_advance_args(time: float, t_end: float, torque: float) -> None:
-    """Shared argument check for advance(): a ValueError naming the bad value."""
-    if not np.isfinite(torque):
+    """Shared argument check for advance(): a ValueError naming the bad value (math, not numpy:
+    it runs at every doStep, and numpy's scalar calls cost microseconds)."""
+    if not math.isfinite(torque):
         raise ValueError(f"torque = {torque!r} is not allowed: it must be a finite number (N.m)")
-    if not np.isfinite(t_end) or t_end <= time:
+    if not math.isfinite(t_end) or t_end <= time:
         raise ValueError(f"t_end = {t_end!r} is not allowed: it must be a finite time after the current time {time!r}")
 
 
@@ -144,9 +148,10 @@ def restored_min_gap(state: ModelState, outputs: Outputs) -> float:
     return float(state.scalars.get("last_min_gap", outputs.gap))
 
 
-LAST_ADVANCE_FIELDS = ("contact_force_max", "contact_impulse")
+LAST_ADVANCE_FIELDS = ("contact_force_max", "contact_impulse", "contact_hold")
 """Outputs that describe the last advance rather than the state: a state carries them as scalars
-"last_<name>" and set_state restores them (as restored_min_gap does gap_min)."""
+"last_<name>" and set_state restores them (as restored_min_gap does gap_min). contact_hold also
+steers the next advance's steps, so a restored state steps exactly as the original did."""
 
 
 def last_advance_scalars(outputs: Outputs) -> dict[str, float]:

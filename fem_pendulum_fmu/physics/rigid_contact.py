@@ -34,6 +34,7 @@ FACES = ("right", "left", "top", "bottom")  # x_max, x_min, y_max, y_min
 # Gauss-Legendre on pieces no wider than MAX_PIECE rad: the integrands are
 # trigonometric of degree 2, so 8 points are exact to round-off there.
 _GL_X, _GL_W = (tuple(float(v) for v in a) for a in np.polynomial.legendre.leggauss(8))
+_GL = tuple(zip(_GL_X, _GL_W, strict=True))
 MAX_PIECE = 0.5
 
 
@@ -115,11 +116,49 @@ def _offset(arc: Arc, angle: float) -> float:
     return (angle - arc.start) % TWO_PI
 
 
+def _one_face_piece(arc: Arc, block: WallBlock) -> list[Piece] | None:
+    """The inside pieces when the circle crosses one face well away from its ends, else None.
+
+    If the centre lies outside face F's half-plane at distance R - delta (delta > 0), the circle's
+    points beyond F's line form a segment of depth <= delta whose extent along F is its chord. With
+    that chord inside F's extent by more than delta at both ends and the block deeper than 2 delta,
+    the segment lies in the block, F is its nearest face everywhere (the other faces are more than
+    delta away) and the rest of the circle is outside F's half-plane, so outside the block: the arc
+    inside the block is one piece, bounded by the chord's ends. A centre outside F with delta <= 0
+    means the circle misses the block. This is the resting or impacting head on one face; corners
+    and deep contacts take the general split (None)."""
+    cx, cy, R = arc.cx, arc.cy, arc.radius
+    for face, (c, gx, gy) in enumerate(face_depths(block)):
+        centre_depth = c + gx * cx + gy * cy
+        if centre_depth >= 0.0:
+            continue
+        delta = R + centre_depth  # depth of the circle's deepest point below F's line
+        if delta <= 0.0:
+            return []
+        if gx != 0.0:  # a vertical face: the chord runs along y
+            lo, hi, t, thick = block.y_min, block.y_max, cy, block.x_max - block.x_min
+        else:
+            lo, hi, t, thick = block.x_min, block.x_max, cx, block.y_max - block.y_min
+        half_chord = math.sqrt(delta * (2.0 * R - delta))
+        if not (lo + delta < t - half_chord and t + half_chord < hi - delta and thick > 2.0 * delta):
+            return None
+        peak = math.atan2(gy, gx)  # the deepest point's direction from the centre
+        half = math.acos(-centre_depth / R)
+        s0 = _offset(arc, peak - half)
+        if s0 + 2.0 * half > arc.length:  # the rod joint's gap reaches the segment
+            return None
+        return [Piece(arc.start + s0, arc.start + s0 + 2.0 * half, face)]
+    return None
+
+
 def inside_pieces(arc: Arc, block: WallBlock) -> list[Piece]:
     """The parts of the arc strictly inside the block, split where the nearest face changes."""
     cx, cy, R = arc.cx, arc.cy, arc.radius
     if not circle_may_touch(cx, cy, R, block):
         return []
+    fast = _one_face_piece(arc, block)
+    if fast is not None:
+        return fast
     # crossings outside the (slightly grown) block cannot start, end or split an inside part
     slack = 1e-9 * (block.x_max - block.x_min + block.y_max - block.y_min)
     x_lo, x_hi, y_lo, y_hi = block.x_min - slack, block.x_max + slack, block.y_min - slack, block.y_max + slack
@@ -166,6 +205,7 @@ def penalty(arc: Arc, block: WallBlock, hk: float, pieces: list[Piece] | None = 
         return Penalty(0.0, 0.0, 0.0, 0.0, 0.0)
     cx, cy, R = arc.cx, arc.cy, arc.radius
     faces = face_depths(block)
+    cos, sin = math.cos, math.sin  # local names: this loop is the rigid model's inner loop in contact
     e = fx = fy = de = d2e = 0.0
     for a, b, face in pieces:
         c, gx, gy = faces[face]
@@ -175,9 +215,9 @@ def penalty(arc: Arc, block: WallBlock, hk: float, pieces: list[Piece] | None = 
         s_d = s_dd = s_dj = s_h = 0.0
         for k in range(n_sub):
             mid = a + (k + 0.5) * width
-            for xi, wi in zip(_GL_X, _GL_W, strict=True):  # both of leggauss(8)
+            for xi, wi in _GL:  # leggauss(8)
                 ang = mid + half * xi
-                px, py = cx + R * math.cos(ang), cy + R * math.sin(ang)
+                px, py = cx + R * cos(ang), cy + R * sin(ang)
                 d = c + gx * px + gy * py
                 jd = gy * px - gx * py  # d(depth)/dtheta: g . (J p), J p = (-py, px)
                 s_d += wi * d
@@ -286,6 +326,23 @@ def signed_gap(arc: Arc, block: WallBlock, pieces: list[Piece] | None = None) ->
             nx, ny = -rx / dist_c, -ry / dist_c
             px, py = cx - R * nx, cy - R * ny
             return dist_c - R, ny * px - nx * py
+    return _contact_or_outside_gap(arc, block, pieces)
+
+
+def clear_gap(cx: float, cy: float, radius: float, start: float, length: float, block: WallBlock) -> float | None:
+    """signed_gap's gap for the arc (cx, cy, radius, start, length) when its fast path applies (the
+    circle clear of the block, its point facing the block on the arc), by the same arithmetic;
+    None otherwise. Without building an Arc: the rigid model's free flight asks it every step."""
+    qx = min(max(cx, block.x_min), block.x_max)
+    qy = min(max(cy, block.y_min), block.y_max)
+    dist_c = math.hypot(cx - qx, cy - qy)
+    if dist_c > radius and (math.atan2(qy - cy, qx - cx) - start) % TWO_PI <= length:
+        return dist_c - radius
+    return None
+
+
+def _contact_or_outside_gap(arc: Arc, block: WallBlock, pieces: list[Piece] | None) -> tuple[float, float]:
+    """signed_gap beyond its fast path: the deepest point inside, else the exact outside distance."""
     if pieces is None:
         pieces = inside_pieces(arc, block)
     if pieces:

@@ -10,6 +10,25 @@ The rule, in words (it is what `solver.max_step` and `solver.tolerance` mean):
 * in contact: `n = ceil(pi / sqrt(12 tol))` steps per estimated contact
   duration (29 at tol = 1e-3), which bounds the midpoint rule's phase error
   over a contact, (pi/n)^2 / 12, by `tol`;
+* a held contact takes free-flight steps again, with no onset location: one
+  whose hold exceeds `HELD_CONTACTS` estimated contact durations and whose
+  force is no more than `HELD_FORCE` times what the torque and gravity can
+  press with, (|T| + m g d |sin theta|) / D at the head centre's depth D.
+  The hold grows by the time in contact and shrinks by `HOLD_DECAY` of the
+  time out of it (never below 0), a step that enters or leaves contact split
+  where its end gaps, interpolated linearly, cross zero. A stiff impact is
+  over within one duration and then flies off; a compliant body's long
+  impact carries forces far above the load; both stay resolved. A head that
+  stays, or lifts off only briefly (an elastic head's rod vibrating under
+  the load), is kept there by the load, and the undamped normal vibration
+  about the loaded equilibrium is not resolved. The discrete gradient keeps the
+  energy balance exact whatever the step, and over time the contact impulse
+  equals the load's (momentum balance), so the mean contact force, impulse
+  over time, stays the load's reaction; what is given up is the phase of that
+  vibration, so the sampled `contact_force` is a sample of an aliased
+  vibration (docs/robustness.md, case 4). The hold is the outputs'
+  `contact_hold`, which every model's state carries, so a restored state
+  steps as the original did;
 * a step whose nonlinear solve fails is rejected and halved; below
   `min_step` the advance fails with StepFailed and the caller keeps the state
   it had;
@@ -30,12 +49,14 @@ the step, so that an impact shorter than a communication step is still seen.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Generic, Protocol, TypeVar
 
 import numpy as np
 
+from .mass_properties import gravity_moment
 from .protocol import Outputs, StepFailed, check_advance_args
 
 if TYPE_CHECKING:
@@ -63,6 +84,12 @@ class Steppable(Protocol[X]):
         as the scheme applies it: the contact force of its momentum update times dt."""
 
 
+HELD_CONTACTS = 3.0  # a contact held this many estimated contact durations is held, not an impact
+HELD_FORCE = 10.0  # ... if its force is below this many times the load's (the resting heads vibrate to 6.6 times)
+HOLD_DECAY = 0.2  # out of contact the hold shrinks at this share of the time: an impact's hold is gone after a flight
+# of five contact durations; a head that chatters on the wall (in contact a sixth of the time or more) keeps it
+
+
 @dataclass(frozen=True)
 class StepControl:
     max_step: float = 2e-3
@@ -85,25 +112,39 @@ class StepControl:
 
 @dataclass
 class ContactTally:
-    """Contact over the accepted steps of one advance: the largest force at their ends and the impulse."""
+    """Contact over the accepted steps of one advance: the largest force at their ends, the impulse,
+    and the contact's hold (from before the advance on; see the module's docstring)."""
 
     force_max: float = 0.0
-    impulse: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    impulse_x: float = 0.0
+    impulse_y: float = 0.0
+    hold: float = 0.0
+    force_now: float = 0.0  # the contact force at the last step's end (at the advance's start: the outputs')
 
     def add(self, model: Steppable[X], x0: X, x1: X, dt: float, gap0: float) -> None:
         """Count an accepted step from x0 (gap gap0) to x1. A step with no point in contact at either
         end has no contact force, so it adds nothing (and costs one gap, which the stepper reuses)."""
         gap1 = model.gap_and_rate(x1)[0]
+        self.hold = _hold_after(self.hold, gap0, gap1, dt)
+        self.force_now = 0.0
         if gap0 >= 0.0 and gap1 >= 0.0:
             return
-        self.impulse = self.impulse + model.contact_impulse(x0, x1, dt)
+        jx, jy = model.contact_impulse(x0, x1, dt)
+        self.impulse_x += float(jx)
+        self.impulse_y += float(jy)
         if gap1 < 0.0:
-            self.force_max = max(self.force_max, model.contact_force(x1))
+            self.force_now = model.contact_force(x1)
+            self.force_max = max(self.force_max, self.force_now)
+
+    @property
+    def impulse(self) -> np.ndarray:
+        return np.array([self.impulse_x, self.impulse_y])
 
     def report(self, outputs: Outputs) -> None:
-        """Set the outputs' contact_force_max and contact_impulse (the impulse's magnitude)."""
+        """Set the outputs' contact_force_max, contact_impulse (the impulse's magnitude) and contact_hold."""
         outputs.contact_force_max = self.force_max
-        outputs.contact_impulse = float(np.hypot(self.impulse[0], self.impulse[1]))
+        outputs.contact_impulse = math.hypot(self.impulse_x, self.impulse_y)
+        outputs.contact_hold = self.hold
 
 
 @dataclass
@@ -121,7 +162,8 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, co
     substeps = rejected = 0
     dt_cap = control.max_step  # lowered after a failed solve, grows back on success
     min_gap = math.inf
-    contact = ContactTally()
+    contact = _start_tally(model)
+    load = math.nan  # what the torque and gravity can press with, asked for once a contact is held long enough
     while t_end - t > 0.0:
         remaining = t_end - t
         gap, rate = model.gap_and_rate(x)
@@ -130,7 +172,14 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, co
         dt_contact = t_contact / n_contact
         pen_tol = d_max / n_contact
         dt = min(control.max_step, dt_cap)
-        if gap < 0.0:
+        held = False
+        if contact.hold > HELD_CONTACTS * t_contact:
+            if math.isnan(load):
+                load = _load_force(model, torque)
+            held = contact.force_now <= HELD_FORCE * load
+        if held:
+            dt_contact = math.inf  # free-flight steps, and no onset to locate
+        elif gap < 0.0:
             dt = min(dt, dt_contact)
         elif rate < 0.0:
             t_hit = (gap + pen_tol) / -rate
@@ -162,6 +211,41 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, co
         dt_cap = min(control.max_step, 2.0 * dt_cap)
     min_gap = min(min_gap, model.gap_and_rate(x)[0])
     return AdvanceResult(x, substeps, rejected, min_gap, contact)
+
+
+def _hold_after(hold: float, gap0: float, gap1: float, dt: float) -> float:
+    """The hold after a step from gap0 to gap1: plus its time in contact, minus HOLD_DECAY of its time
+    outside, the crossing of a step that enters or leaves contact placed by the gaps (linearly)."""
+    if gap0 < 0.0 and gap1 < 0.0:
+        return hold + dt
+    inside = dt * (gap1 / (gap1 - gap0) if gap1 < 0.0 else gap0 / (gap0 - gap1) if gap0 < 0.0 else 0.0)
+    return max(hold + inside - HOLD_DECAY * (dt - inside), 0.0)
+
+
+def _start_tally(model: object) -> ContactTally:
+    """The tally of an advance, with the contact's hold and force as the model's current outputs
+    report them (none for a model without outputs, such as a bare Steppable)."""
+    outputs = getattr(model, "outputs", None)
+    if not callable(outputs):
+        return ContactTally()
+    now = outputs()
+    return ContactTally(hold=float(now.contact_hold), force_now=float(now.contact_force))
+
+
+@functools.lru_cache(maxsize=16)
+def _gravity_moment(scene: Scene) -> float:
+    return gravity_moment(scene)
+
+
+def _load_force(model: object, torque: float) -> float:
+    """(|T| + m g d |sin theta|) / D: the largest force the torque and gravity can press the head on
+    a face with, at the head centre's depth D and the angle the advance started at (0 for a model
+    without a scene and outputs)."""
+    scene, outputs = getattr(model, "scene", None), getattr(model, "outputs", None)
+    if scene is None or not callable(outputs):
+        return 0.0
+    gravity = _gravity_moment(scene) * abs(math.sin(outputs().theta))
+    return (abs(torque) + gravity) / scene.geometry.head_centre_depth
 
 
 def _step_locating_onset(

@@ -27,9 +27,17 @@ import numpy as np
 from .. import rigid_contact
 from ..contact_time import effective_mass
 from ..mass_properties import gravity_moment, mass_properties
-from ..protocol import BodyField, ModelState, Outputs, last_advance_scalars, restore_last_advance, restored_min_gap
+from ..protocol import (
+    BodyField,
+    ModelState,
+    Outputs,
+    check_advance_args,
+    last_advance_scalars,
+    restore_last_advance,
+    restored_min_gap,
+)
 from ..scene import Scene, refuse_deformable_wall, validate
-from ..stepping import StepControl, SteppedModel
+from ..stepping import HOLD_DECAY, StepControl, SteppedModel
 
 if TYPE_CHECKING:
     from ..fields import VertexSampler
@@ -39,6 +47,9 @@ ENERGY_ROUNDOFF = 1e-15  # relative energy imbalance per step accepted as conver
 SMALL_STEP = 1e-9  # |q1 - q0| (rad) below which the contact difference quotient is replaced by a derivative
 APPROACH_SPEED_FLOOR = 1e-3  # m/s: a head at rest near the block is assumed to approach at least this fast
 NEAR_FRACTION = 1.0  # contact scales are reported while the gap is below this many head radii
+FREE_MARGIN = 1e-9  # m of clearance a step must keep, beyond its sweep, to skip the contact law
+NO_CONTACT = rigid_contact.Penalty(0.0, 0.0, 0.0, 0.0, 0.0)
+TWO_PI = 2.0 * math.pi
 
 
 class RigidModel(SteppedModel[tuple]):
@@ -69,6 +80,7 @@ class RigidModel(SteppedModel[tuple]):
         self.contact_on = scene.wall.kind == "rigid" and scene.contact.stiffness > 0.0
         self._hk = mat.thickness * scene.contact.stiffness
         self._depth, self._radius = geo.head_centre_depth, geo.head_radius
+        self._reach = self._depth + self._radius  # farthest arc point from the pivot: how far a rotation sweeps it
         if not 0.0 < geo.rod_half_width < geo.head_radius:
             raise ValueError(
                 f"geometry: rod_half_width {geo.rod_half_width!r} must lie in (0, head_radius {geo.head_radius!r})"
@@ -107,14 +119,12 @@ class RigidModel(SteppedModel[tuple]):
         hit = self._memo.get(q)
         if hit is not None:
             return hit
-        D = self._depth
-        result: tuple[Sequence[rigid_contact.Piece], rigid_contact.Penalty]
-        if not rigid_contact.circle_may_touch(D * math.sin(q), -D * math.cos(q), self._radius, self.block):
-            result = ((), rigid_contact.Penalty(0.0, 0.0, 0.0, 0.0, 0.0))
-        else:
-            arc = self.arc(q)
-            pieces = rigid_contact.inside_pieces(arc, self.block)
-            result = (pieces, rigid_contact.penalty(arc, self.block, self._hk, pieces))
+        arc = self.arc(q)
+        pieces = rigid_contact.inside_pieces(arc, self.block)  # [] at once for a circle clear of the block
+        result: tuple[Sequence[rigid_contact.Piece], rigid_contact.Penalty] = (
+            pieces,
+            rigid_contact.penalty(arc, self.block, self._hk, pieces) if pieces else NO_CONTACT,
+        )
         if len(self._memo) > 64:
             self._memo.clear()
         self._memo[q] = result
@@ -123,7 +133,7 @@ class RigidModel(SteppedModel[tuple]):
     def contact_energy(self, theta: float) -> rigid_contact.Penalty:
         """Contact energy, force and its theta-derivatives at angle theta (zeros without a wall)."""
         if not self.contact_on:
-            return rigid_contact.Penalty(0.0, 0.0, 0.0, 0.0, 0.0)
+            return NO_CONTACT
         return self._contact(float(theta))[1]
 
     def geometric_gap(self, theta: float) -> tuple[float, float]:
@@ -141,30 +151,10 @@ class RigidModel(SteppedModel[tuple]):
     def step(self, x: tuple, dt: float, torque: float) -> tuple | None:
         """One discrete-gradient step; None when the scalar solve fails (the stepper halves dt)."""
         q0, w0, work = x
-        u = self._solve(q0, w0, dt, torque)
+        u = self._solve(q0, w0, dt, torque, self.contact_on)
         if u is None:
             return None
         return (q0 + u, 2.0 * u / dt - w0, work + torque * u)
-
-    def _potential_quotient(self, q0: float, u: float, e0: float) -> tuple[float, float]:
-        """(V(q0 + u) - V(q0)) / u for V = gravity + contact, and its derivative in u; e0 = contact energy at q0."""
-        mgd = self._mgd
-        h = 0.5 * u
-        qm = q0 + h
-        # gravity difference quotient, cancellation-free: mgd sin(qm) sin(h)/h
-        if abs(h) > 1e-4:
-            sinc, dsinc = math.sin(h) / h, (h * math.cos(h) - math.sin(h)) / (h * h)
-        else:
-            h2 = h * h
-            sinc, dsinc = 1.0 - h2 / 6.0 + h2 * h2 / 120.0, h * (-1.0 / 3.0 + h2 / 30.0)
-        s_m, c_m = math.sin(qm), math.cos(qm)
-        quot = mgd * s_m * sinc
-        dquot = 0.5 * mgd * (c_m * sinc + s_m * dsinc)
-        if self.contact_on:
-            qc, dqc = self._contact_quotient(q0, u, e0)
-            quot += qc
-            dquot += dqc
-        return quot, dquot
 
     def _contact_quotient(self, q0: float, u: float, e0: float) -> tuple[float, float]:
         """(E(q0 + u) - E(q0)) / u for the contact energy E, and its derivative in u; e0 = E(q0).
@@ -196,28 +186,41 @@ class RigidModel(SteppedModel[tuple]):
         for q in (0.5 * (q0 + q1), q1, q0):
             pen = self.contact_energy(q)
             if pen.d_energy != 0.0:
-                return dt * (qc / pen.d_energy) * np.array([pen.fx, pen.fy])
+                scale = dt * (qc / pen.d_energy)
+                return np.array((scale * pen.fx, scale * pen.fy))
         return np.zeros(2)
 
-    def _solve(self, q0: float, w0: float, dt: float, torque: float) -> float | None:
-        """The increment u = q1 - q0 solving G(u) = 0 (Newton, safeguarded by a bracket)."""
+    def _solve(self, q0: float, w0: float, dt: float, torque: float, contact: bool) -> float | None:
+        """The increment u = q1 - q0 solving G(u) = 0 (Newton, safeguarded by a bracket); `contact`
+        False leaves the contact energy out (a step that provably never reaches the block)."""
         c = 2.0 * self.inertia / (dt * dt)
         mgd = self._mgd
-        contact = self.contact_on
-        e0 = self._contact(q0)[1].energy if contact else 0.0
-
-        def residual(u: float) -> tuple[float, float]:
-            quot, dquot = self._potential_quotient(q0, u, e0)
-            return c * (u - dt * w0) - torque + quot, c + dquot
-
+        pen0 = self._contact(q0)[1] if contact else None
+        e0 = pen0.energy if pen0 is not None else 0.0
         # predictor: explicit step with the force at q0
-        force0 = torque - mgd * math.sin(q0) - (self._contact(q0)[1].d_energy if contact else 0.0)
+        force0 = torque - mgd * math.sin(q0) - (pen0.d_energy if pen0 is not None else 0.0)
         u = dt * w0 + 0.5 * dt * dt * force0 / self.inertia
         scale = mgd + 0.5 * self.inertia * w0 * w0 + e0 + abs(torque * u)  # energies this step moves
         lo, hi = -math.inf, math.inf
         span = max(abs(u), dt * abs(w0), 1e-12)
         for _ in range(NEWTON_MAX_IT):
-            g, dg = residual(u)
+            # G(u) = c (u - dt w0) - T + (V(q0 + u) - V(q0)) / u; gravity's quotient cancellation-free,
+            # mgd sin(qm) sin(h) / h with h = u / 2 (inlined: this loop is the rigid model's inner loop)
+            h = 0.5 * u
+            if abs(h) > 1e-4:
+                sin_h = math.sin(h)
+                sinc, dsinc = sin_h / h, (h * math.cos(h) - sin_h) / (h * h)
+            else:
+                h2 = h * h
+                sinc, dsinc = 1.0 - h2 / 6.0 + h2 * h2 / 120.0, h * (-1.0 / 3.0 + h2 / 30.0)
+            s_m, c_m = math.sin(q0 + h), math.cos(q0 + h)
+            quot = mgd * s_m * sinc
+            dquot = 0.5 * mgd * (c_m * sinc + s_m * dsinc)
+            if contact:
+                qc, dqc = self._contact_quotient(q0, u, e0)
+                quot += qc
+                dquot += dqc
+            g, dg = c * (u - dt * w0) - torque + quot, c + dquot
             if not (math.isfinite(g) and math.isfinite(dg)):
                 return None
             if g == 0.0:
@@ -244,6 +247,47 @@ class RigidModel(SteppedModel[tuple]):
                     u_new = u + span if g < 0.0 else u - span
             u = u_new
         return None
+
+    # ------------------------------------------------------------- advance
+    def advance(self, t_end: float, torque: float) -> Outputs:
+        """The protocol's advance: one free-flight step taken directly when it provably stays off the
+        block (`_free_step`), else the shared stepper (stepping.py)."""
+        t_end, torque = float(t_end), float(torque)
+        check_advance_args(self.time, t_end, torque)
+        out = self._free_step(t_end, torque)
+        return out if out is not None else SteppedModel.advance(self, t_end, torque)
+
+    def _free_step(self, t_end: float, torque: float) -> Outputs | None:
+        """The advance to t_end as the single step the stepper would take in free flight, when no
+        arc point can reach the block during it; None otherwise (the stepper takes the advance).
+
+        Every arc point lies within `_reach` of the pivot, so a rotation by u moves it at most
+        _reach |u| and the gap cannot close by more: with gap0 > _reach |u| the contact energy is
+        zero over the whole step, and the step without the contact law is the discrete-gradient
+        step itself. Its outputs are those of `_compute_outputs`, without the contact evaluations."""
+        dt = t_end - self.time
+        gap0 = self._outputs.gap
+        if dt > self.control.max_step or (self.contact_on and not gap0 > FREE_MARGIN):
+            return None
+        q0, w0, work = self._x
+        u = self._solve(q0, w0, dt, torque, False)
+        if u is None or (self.contact_on and not gap0 > self._reach * abs(u) + FREE_MARGIN):
+            return None
+        q1 = q0 + u
+        x = (q1, 2.0 * u / dt - w0, work + torque * u)
+        D, R = self._depth, self._radius
+        gap1 = rigid_contact.clear_gap(
+            D * math.sin(q1), -D * math.cos(q1), R, q1 + self._arc_offset, self._arc_length, self.block
+        )
+        if gap1 is None:  # the arc's end is nearest: signed_gap's exact outside distance
+            gap1 = rigid_contact.signed_gap(self.arc(q1), self.block)[0]
+        out = self._compute_outputs(x, t_end, 1, gap1)
+        # as the stepper reports it: the smallest gap at the step's ends (only the end's without a wall),
+        # no contact force or impulse (Outputs' defaults), the contact's hold shrinking
+        self.last_min_gap = out.min_gap = min(gap0, gap1) if self.contact_on else gap1
+        out.contact_hold = max(self._outputs.contact_hold - HOLD_DECAY * dt, 0.0)
+        self._x, self.time, self._outputs = x, t_end, out
+        return out
 
     def gap_and_rate(self, x: tuple) -> tuple[float, float]:
         """Signed gap and its rate for the stepper; (inf, 0) when there is no contact law to resolve."""
@@ -325,26 +369,33 @@ class RigidModel(SteppedModel[tuple]):
         return [body_field(self._sampler, displacement, velocity, np.zeros(len(self._sampler.points)))]
 
     # -------------------------------------------------------------- outputs
-    def _compute_outputs(self, x: tuple, t: float, substeps: int) -> Outputs:
+    def _compute_outputs(self, x: tuple, t: float, substeps: int, free_gap: float | None = None) -> Outputs:
+        """The outputs at state x; `free_gap`: the gap of a state known to be off the block."""
         q, w, work = x
-        pen = self.contact_energy(q)
-        gap, _ = self.geometric_gap(q)
+        if free_gap is None:
+            pen = self.contact_energy(q)
+            gap, _ = self.geometric_gap(q)
+        else:
+            pen, gap = NO_CONTACT, free_gap
         kinetic = 0.5 * self.inertia * w * w
         potential = -self._mgd * math.cos(q)
         total = kinetic + potential + pen.energy
+        # positional, in the order of Outputs' fields (half the cost of keywords, at every doStep):
+        # time, theta, omega, gap, contact_force, kinetic, potential, strain, contact, total,
+        # torque_work, von_mises_max, substeps, min_gap
         return Outputs(
-            time=t,
-            theta=math.remainder(q, 2.0 * math.pi),
-            omega=w,
-            gap=gap,
-            contact_force=math.hypot(pen.fx, pen.fy),
-            kinetic=kinetic,
-            potential=potential,
-            strain=0.0,
-            contact=pen.energy,
-            total=total,
-            torque_work=work,
-            von_mises_max=0.0,
-            substeps=substeps,
-            min_gap=gap,
+            t,
+            math.remainder(q, TWO_PI),
+            w,
+            gap,
+            math.hypot(pen.fx, pen.fy),
+            kinetic,
+            potential,
+            0.0,
+            pen.energy,
+            total,
+            work,
+            0.0,
+            substeps,
+            gap,
         )

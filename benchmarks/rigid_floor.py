@@ -1,0 +1,184 @@
+"""The rigid fidelity through the FMU against the floor of any Python FMU.
+
+    python benchmarks/rigid_floor.py [--fmu dist/FemPendulum.fmu] [--repeat 5] [--stop-time 2]
+
+The floor is a trivial pythonfmu slave with the same inputs, parameters and
+Real outputs as FemPendulum (read from modelDescription.template.xml through
+fem_pendulum_fmu/fmi/interface.py), whose doStep only adds torque x step to
+one output. It is built into a temporary folder with the same front binary
+(fmi/shim/) as FemPendulum, so both go through the same native calls. Both
+FMUs are then driven alike by fmpy's FMU2Slave, each run in a fresh process:
+the stiff scene released at theta0 (20 degrees), 1 ms communication steps,
+every step set the torque (0), doStep, getReal of all Real outputs, for
+--stop-time seconds. Printed: CPU time (time.process_time) and wall time per
+simulated second of the stepping loop (instantiation excluded), median of
+--repeat runs each (alternating, so that load from other jobs hits both
+alike), their ratio, and the load average before and after.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+
+from fem_pendulum_fmu.fmi import interface as fmi_interface
+
+FLOOR_ID = "RigidFloor"
+
+SLAVE_TEMPLATE = '''"""A trivial slave with FemPendulum's variables: the cost floor of a Python FMU."""
+
+from pythonfmu import Fmi2Slave
+from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Variability
+from pythonfmu.variables import Boolean, Integer, Real, String
+
+VARIABLES = {variables!r}
+TYPES = {{"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean": Boolean, "String": String}}
+
+
+class {name}(Fmi2Slave):
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.values = {{}}
+        self.torque = 0.0
+        self.theta = 0.0
+        for name, typ, causality, variability, start in VARIABLES:
+            self._add(name, typ, causality, variability, start)
+
+    def _add(self, name, typ, causality, variability, start):
+        extra = {{}}
+        if causality == "parameter":
+            self.values[name] = start
+            extra = dict(initial=Fmi2Initial.exact, setter=lambda v, n=name: self.values.__setitem__(n, v))
+            getter = lambda n=name: self.values[n]
+        elif causality == "input":
+            getter, extra["setter"] = (lambda: self.torque), self._set_torque
+        elif name == "theta":
+            getter = lambda: self.theta
+        else:
+            getter = lambda: 0.0
+        if start is not None:
+            extra["start"] = start
+        var = TYPES[typ](
+            name, causality=Fmi2Causality[causality], variability=Fmi2Variability[variability], getter=getter, **extra
+        )
+        self.register_variable(var, nested=False)
+
+    def _set_torque(self, value):
+        self.torque = float(value)
+
+    def do_step(self, current_time, step_size):
+        self.theta += self.torque * step_size
+        return True
+'''
+
+DRIVER = """
+import json, sys, time
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+fmu, identifier, stop, step = sys.argv[1], sys.argv[2], float(sys.argv[3]), float(sys.argv[4])
+integers = json.loads(sys.argv[5])
+md = read_model_description(fmu)
+vr = {v.name: v.valueReference for v in md.modelVariables}
+outs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+s = FMU2Slave(guid=md.guid, unzipDirectory=extract(fmu), modelIdentifier=identifier, instanceName="floor")
+s.instantiate(); s.setupExperiment(startTime=0.0); s.enterInitializationMode()
+for name, value in integers.items():
+    s.setInteger([vr[name]], [value])
+s.exitInitializationMode()
+n = round(stop / step)
+torque = [vr["torque"]]
+t = 0.0
+c0, w0 = time.process_time(), time.perf_counter()
+for k in range(n):
+    s.setReal(torque, [0.0]); s.doStep(t, step); t = (k + 1) * step; values = s.getReal(outs)
+cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+s.terminate(); s.freeInstance()
+print(json.dumps({"cpu": cpu, "wall": wall, "outputs": len(outs), "theta": values[outs.index(vr["theta"])]}))
+"""
+
+
+def variables() -> list[tuple]:
+    """FemPendulum's inputs, parameters and Real outputs as (name, type, causality, variability, start)."""
+    chosen = []
+    for v in fmi_interface.load().variables:
+        if v.causality in ("input", "parameter") or (v.causality == "output" and v.type == "Real"):
+            chosen.append((v.name, v.type, v.causality, v.variability, v.start))
+    return chosen
+
+
+def build_floor(folder: Path) -> Path:
+    """Build the trivial FMU in `folder`, with the same front binary as FemPendulum."""
+    from pythonfmu.builder import FmuBuilder
+
+    from fem_pendulum_fmu.fmi.builder import finish_fmu, shim_resources
+
+    script = folder / f"{FLOOR_ID.lower()}_entry.py"
+    script.write_text(SLAVE_TEMPLATE.format(variables=variables(), name=FLOOR_ID))
+    fmu = Path(FmuBuilder.build_FMU(script, dest=folder))
+    with zipfile.ZipFile(fmu) as z:
+        xml = z.read("modelDescription.xml").decode()
+    finish_fmu(fmu, FLOOR_ID, xml, shim_resources(("numpy",)))
+    return fmu
+
+
+def run(fmu: Path, identifier: str, stop: float, step: float, integers: dict[str, int]) -> dict:
+    """One run in a fresh process: the driver's JSON line."""
+    out = subprocess.run(
+        [sys.executable, "-c", DRIVER, str(fmu), identifier, repr(stop), repr(step), json.dumps(integers)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--fmu", type=Path, default=Path("dist") / "FemPendulum.fmu")
+    p.add_argument("--repeat", type=int, default=5)
+    p.add_argument("--stop-time", type=float, default=2.0)
+    p.add_argument("--step", type=float, default=1e-3)
+    p.add_argument("--fidelity", default="rigid")
+    args = p.parse_args()
+    fidelity = fmi_interface.load().by_name("model.fidelity").item_number(args.fidelity)
+    load_before = os.getloadavg()
+    runs: dict[str, list[dict]] = {"floor": [], args.fidelity: []}
+    with tempfile.TemporaryDirectory(prefix="rigid_floor_") as tmp:
+        floor = build_floor(Path(tmp))
+        for _ in range(args.repeat):
+            runs["floor"].append(run(floor, FLOOR_ID, args.stop_time, args.step, {}))
+            runs[args.fidelity].append(
+                run(args.fmu.resolve(), "FemPendulum", args.stop_time, args.step, {"model.fidelity": fidelity})
+            )
+    load_after = os.getloadavg()
+    median = {
+        k: {m: statistics.median(r[m] for r in v) / args.stop_time for m in ("cpu", "wall")} for k, v in runs.items()
+    }
+    print(
+        f"{args.repeat} runs each, {args.stop_time:g} s in {args.step * 1e3:g} ms steps, "
+        f"{runs['floor'][0]['outputs']} Real outputs read per step"
+    )
+    print("| FMU | CPU ms per simulated s | wall ms per simulated s | CPU, every run |")
+    print("|---|---|---|---|")
+    for k, v in runs.items():
+        every = ", ".join(f"{r['cpu'] / args.stop_time * 1e3:.1f}" for r in v)
+        print(f"| {k} | {median[k]['cpu'] * 1e3:.1f} | {median[k]['wall'] * 1e3:.1f} | {every} |")
+    ratio_cpu = median[args.fidelity]["cpu"] / median["floor"]["cpu"]
+    ratio_wall = median[args.fidelity]["wall"] / median["floor"]["wall"]
+    print(f"ratio {args.fidelity} / floor: CPU {ratio_cpu:.2f}, wall {ratio_wall:.2f}")
+    print(
+        "load average (1, 5, 15 min) before: {:.2f} {:.2f} {:.2f}, after: {:.2f} {:.2f} {:.2f}".format(
+            *load_before, *load_after
+        )
+    )
+
+
+if __name__ == "__main__":
+    main()
