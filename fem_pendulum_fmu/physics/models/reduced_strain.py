@@ -64,7 +64,6 @@ class NeoHookeanStrain:
             G[..., j] = np.asarray(grad(points)).reshape(-1, 4)
         self._G = G.reshape(-1, phi.shape[1])
         self._lam, self._mu = scene.pendulum.lame
-        self._mu_gram = self._mu * (self._G.T @ (np.repeat(self._weights, 4)[:, None] * self._G))
         self.linear_hessian = np.diag(omega2)  # the tangent at q = 0
 
     def _kinematics(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -99,17 +98,15 @@ class NeoHookeanStrain:
         return ((self._weights[:, None, None] * P).reshape(-1)) @ self._G
 
     def hessian(self, q: np.ndarray) -> np.ndarray:
-        """Exact tangent sum_p w_p G_p^T A_p G_p, with the Neo-Hookean elasticity tensor
-        A_iJkL = mu d_ik d_JL + (mu - lam ln J) H_iL H_kJ + lam H_iJ H_kL (H = F^-T), as three
-        matrix products over all points (no 4x4 tensor per point):
-        mu G^T W G (constant), sum (w beta) X_LJ X_JL with X_LJ = sum_i H_iL G_iJ, and lam V^T W V
-        with V = h . G (h = H flattened like G's rows)."""
+        """Exact tangent: sum_p w_p G_p^T A_p G_p with the Neo-Hookean elasticity tensor
+        A_iJkL = mu d_ik d_JL + (mu - lam ln J) Fi_Li Fi_Jk + lam Fi_Ji Fi_Lk (Fi = F^-1)."""
         F, J = self._kinematics(q)
         inv, log_j = self._inverse_and_log(F, J)
-        n, m = len(J), self._G.shape[1]
-        G = self._G.reshape(n, 2, 2 * m)  # [i, (J, mode)]
-        X = np.matmul(inv, G).reshape(n, 2, 2, m)  # inv[L, i] = H_iL: X[L, J, mode]
-        beta = self._weights * (self._mu - self._lam * log_j)
-        swapped = (beta[:, None, None, None] * X.transpose(0, 2, 1, 3)).reshape(-1, m)
-        V = np.matmul(inv.transpose(0, 2, 1).reshape(n, 1, 4), self._G.reshape(n, 4, m)).reshape(n, m)
-        return self._mu_gram + X.reshape(-1, m).T @ swapped + self._lam * (V.T @ (self._weights[:, None] * V))
+        n = len(J)
+        A = np.einsum("pli,pjk->pijkl", inv, inv).reshape(n, 4, 4) * (self._mu - self._lam * log_j)[
+            :, None, None
+        ] + self._lam * np.einsum("pji,plk->pijkl", inv, inv).reshape(n, 4, 4)
+        A += self._mu * np.eye(4)
+        G = self._G.reshape(n, 4, -1)
+        AG = A @ G
+        return np.einsum("pam,pan->mn", G * self._weights[:, None, None], AG, optimize=True)
