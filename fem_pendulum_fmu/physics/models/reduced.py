@@ -334,10 +334,10 @@ class ReducedModel(SteppedModel[tuple]):
 
         Converged: the energy imbalance within ENERGY_TOL and the last update within UPDATE_TOL of
         the step's largest change. The imbalance alone checks the residual along dz only: stopping on
-        it alone left rubber's angle 0.7 degree off the converged solution by 0.5 s. From the
-        linearised predictor, Newton contracts by ~3e-4 per iteration, so an update of 1e-3 leaves an
-        error ~1e-6 of the step: over 0.6 s of rubber impacts the angle stays within 3e-7 degree of the
-        solution converged to updates of 1e-8 (docs/reduced.md)."""
+        it alone left rubber's angle about 0.7 degree off the converged solution by 0.5 s. From the
+        linearised predictor Newton contracts by ~3e-4 per iteration, so an update of 1e-3 leaves an
+        error ~1e-6 of the step: over 0.6 s of rubber impacts the angle stays within 3e-4 degree and the
+        gap within 1 micrometre of steps converged to updates of 1e-8 (docs/reduced.md)."""
         start = self._start(x[0], x[1], torque)
         scale = 0.5 * abs(start.t00) + abs(start.V0) + 1e-12
         z1, K_strain = self._predict(start, dt)
