@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .scene import Scene
+from .scene import Scene, element_order
 
 if TYPE_CHECKING:
     from ngsolve import CoefficientFunction, FESpace, Mesh
@@ -147,15 +147,6 @@ def hinged_eigenmodes(K: csr_matrix, M: csr_matrix, C: csr_matrix, count: int) -
     values, vectors = sla.eigsh(K_aug, k=count + 1, M=M_aug, sigma=EIGEN_SHIFT, which="LM")
     order = np.argsort(values)[1:]
     return values[order], vectors[:n, order]
-
-
-def element_order(scene: Scene) -> int:
-    """The FE model's element order for the scene: scene.element_order where the scene module picks it
-    (model.order 0 = auto, by the material), model.order itself otherwise."""
-    from . import scene as scene_module
-
-    pick = getattr(scene_module, "element_order", None)
-    return int(pick(scene)) if pick is not None else scene.model.order
 
 
 def fe_space(scene: Scene) -> tuple[Mesh, FESpace]:

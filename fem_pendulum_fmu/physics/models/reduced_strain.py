@@ -49,7 +49,8 @@ class NeoHookeanStrain:
     def __init__(self, scene: Scene, phi: np.ndarray, omega2: np.ndarray):
         import ngsolve as ngs
 
-        from ..modes import element_order, fe_space
+        from ..modes import fe_space
+        from ..scene import element_order
 
         mesh, V = fe_space(scene)
         rule = ngs.IntegrationRule(ngs.TRIG, 2 * element_order(scene))
