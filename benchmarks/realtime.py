@@ -1,0 +1,188 @@
+"""Cost per simulated second of every fidelity through the FMU, against the seed and against real time.
+
+    python benchmarks/realtime.py [--fmu dist/FemPendulum.fmu] [--repeat 3] [--seed-steps 20] [--runs NAME ...]
+
+Each run is a fresh process that drives FemPendulum.fmu as a master does:
+fmpy's FMU2Slave, 1 ms communication steps, every step setReal(torque = 0),
+doStep and getReal of every Real output; the clock runs over the stepping loop
+only (instantiation and initialisation are timed apart). Runs (--runs picks):
+
+  fem_steel      the default scene (steel, rigid wall, released at 20 degrees), 2 s
+  fem_rubber     the rubber preset (E 1 MPa, nu 0.45, rho 1000, k 5e9, order 3), 2 s
+  fem_wall       steel against the seed's meshed (deformable) wall block, 0.5 s
+  reduced_steel, reduced_rubber, rigid_steel   the other fidelities, 2 s
+  floor          benchmarks/rigid_floor.py's trivial Python FMU with the same variables, 2 s
+
+Printed per run: CPU seconds (time.process_time of the run's process) and wall
+seconds per simulated second (median of --repeat runs, with the spread), the
+ratio to the seed baseline timed in this session (../shared/baseline/
+seed_pendulum.py, --seed-steps 1 ms steps, when that file is there), and the
+accuracy: max |theta - theta_ref| before the reference's second impact against
+benchmarks/references (the L2 runs of benchmarks/speed_vs_error.py) and the
+energy error max |E_total - E_0 - W_torque| over the swing energy. Run it on a
+quiet machine: the load average is printed before and after.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+import fem_speed  # noqa: E402  (the seed's timing, shared with benchmarks/fem_speed.py)
+import rigid_floor  # noqa: E402  (the trivial FMU)
+from speed_vs_error import early_window, load_reference  # noqa: E402
+
+RUBBER = {"pendulum.E": 1e6, "pendulum.nu": 0.45, "pendulum.rho": 1000.0, "contact.stiffness": 5e9}
+ORDER3 = {"model.order": 3}
+FIDELITY = {"rigid": 2, "reduced": 3, "fem": 4}
+# name: (fidelity, Real parameters, Integer parameters, simulated seconds, reference)
+RUNS = {
+    "fem_steel": ("fem", {}, {}, 2.0, "steel"),
+    "fem_rubber": ("fem", RUBBER, ORDER3, 2.0, "rubber"),
+    "fem_wall": ("fem", {}, {"wall.kind": 2}, 0.5, "deformable_wall"),
+    "reduced_steel": ("reduced", {}, {}, 2.0, "steel"),
+    "reduced_rubber": ("reduced", RUBBER, ORDER3, 2.0, "rubber"),
+    "rigid_steel": ("rigid", {}, {}, 2.0, "steel"),
+}
+
+
+def child(fmu: str, spec: dict) -> dict:
+    """One timed run in this process (called through --child): outputs and CPU and wall time."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    t0 = time.perf_counter()
+    md = read_model_description(fmu)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    reals = [v for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+    slave = FMU2Slave(
+        guid=md.guid,
+        unzipDirectory=extract(fmu),
+        modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName="realtime",
+    )
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    reals_in, ints = spec["reals"], dict(spec["integers"])
+    if spec["fidelity"]:
+        ints["model.fidelity"] = FIDELITY[spec["fidelity"]]
+    if reals_in:
+        slave.setReal([vr[k] for k in reals_in], list(reals_in.values()))
+    if ints:
+        slave.setInteger([vr[k] for k in ints], [int(v) for v in ints.values()])
+    slave.exitInitializationMode()
+    startup = time.perf_counter() - t0
+    out_vrs = [v.valueReference for v in reals]
+    names = [v.name for v in reals]
+    n = round(spec["t_end"] / 1e-3)
+    rows = np.empty((n + 1, len(out_vrs)))
+    rows[0] = slave.getReal(out_vrs)
+    torque = [vr["torque"]]
+    c0, w0 = time.process_time(), time.perf_counter()
+    for k in range(n):
+        slave.setReal(torque, [0.0])
+        slave.doStep(k * 1e-3, 1e-3)
+        rows[k + 1] = slave.getReal(out_vrs)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    slave.terminate()
+    slave.freeInstance()
+    kept = ("theta", "energy.total", "energy.torque_work")
+    series = {name: rows[:, i].tolist() for i, name in enumerate(names) if name in kept}
+    return {"cpu": cpu / spec["t_end"], "wall": wall / spec["t_end"], "startup": startup, "series": series}
+
+
+def run_once(fmu: Path, spec: dict) -> dict:
+    out = subprocess.run(
+        [sys.executable, str(Path(__file__).resolve()), "--child", str(fmu), json.dumps(spec)],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def accuracy(series: dict, reference: str | None) -> tuple[float, float]:
+    """(max |theta - theta_ref| before the reference's second impact, energy error / swing energy)."""
+    from fem_pendulum_fmu.physics.mass_properties import swing_energy
+    from fem_pendulum_fmu.physics.scene import stiff
+
+    if not series:
+        return float("nan"), float("nan")
+    total = np.array(series["energy.total"]) - np.array(series["energy.torque_work"])
+    scene = stiff(**(RUBBER if reference == "rubber" else {}))
+    energy = float(np.max(np.abs(total - total[0]))) / swing_energy(scene)
+    ref = load_reference(reference) if reference else None
+    if ref is None:
+        return float("nan"), energy
+    theta = np.array(series["theta"])
+    n = min(len(theta), early_window(ref))
+    return float(np.max(np.abs(theta[:n] - ref["theta"][:n]))), energy
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--fmu", type=Path, default=Path("dist") / "FemPendulum.fmu")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--seed-steps", type=int, default=20, help="1 ms steps of the seed baseline to time (0: skip)")
+    parser.add_argument("--runs", nargs="*", default=[*RUNS, "floor"], choices=[*RUNS, "floor"])
+    parser.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        print(json.dumps(child(args.child[0], json.loads(args.child[1]))))
+        return
+    load_before = os.getloadavg()
+    with tempfile.TemporaryDirectory() as tmp:
+        floor = rigid_floor.build_floor(Path(tmp)) if "floor" in args.runs else None
+        results = {}
+        for name in args.runs:
+            if name == "floor":
+                fmu, spec = floor, {"fidelity": None, "reals": {}, "integers": {}, "t_end": 2.0, "reference": None}
+            else:
+                fidelity, reals, integers, t_end, reference = RUNS[name]
+                fmu = args.fmu
+                spec = {
+                    "fidelity": fidelity,
+                    "reals": reals,
+                    "integers": integers,
+                    "t_end": t_end,
+                    "reference": reference,
+                }
+            runs = [run_once(fmu, spec) for _ in range(args.repeat)]
+            results[name] = (runs, *accuracy(runs[0]["series"], spec["reference"]))
+            print(name, [round(r["cpu"], 4) for r in runs], flush=True)
+    seed = fem_speed.seed_cost_per_step(args.seed_steps) * 1000.0 if args.seed_steps else None
+    load_after = os.getloadavg()
+    print(
+        f"\nload average before {load_before[0]:.2f}, after {load_after[0]:.2f}; seed: "
+        + (f"{seed:.0f} s per simulated s ({args.seed_steps} steps of 1 ms timed now)" if seed else "not timed")
+    )
+    print(
+        "\n| run | CPU s per simulated s (median, spread) | wall s per simulated s | x the seed (wall) | start-up s "
+        "| max theta error before the 2nd impact (rad) | energy error / swing |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for name, (runs, dtheta, energy) in results.items():
+        cpu = [r["cpu"] for r in runs]
+        wall = statistics.median(r["wall"] for r in runs)
+        ratio = f"{seed / wall:.0f}" if seed else "-"
+        print(
+            f"| {name} | {statistics.median(cpu):.3f} ({min(cpu):.3f}-{max(cpu):.3f}) | {wall:.3f} | {ratio} "
+            f"| {statistics.median(r['startup'] for r in runs):.2f} | {dtheta:.2e} | {energy:.1e} |"
+        )
+
+
+if __name__ == "__main__":
+    main()
