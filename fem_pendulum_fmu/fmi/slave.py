@@ -158,7 +158,7 @@ class PendulumSlave(Fmi2Slave):
         # value-reference lists already validated, for the per-step calls: get_real of outputs reads
         # them with one attrgetter (None: not all outputs, pythonfmu's loop), set_real skips re-checking
         self._real_readers: dict[tuple[int, ...], tuple[Callable[[Outputs], Any], bool] | None] = {}
-        self._settable_reals: set[tuple[int, ...]] = set()
+        self._real_setters: dict[tuple[int, ...], tuple[Callable[[Any], None], ...]] = {}
         for var in self.interface.variables:
             self._register(var)
 
@@ -291,13 +291,15 @@ class PendulumSlave(Fmi2Slave):
 
     def set_real(self, vrs: list[int], values: list[float]) -> None:
         key = tuple(vrs)
-        if key not in self._settable_reals:
+        setters = self._real_setters.get(key)
+        if setters is None:
             if self._variables(vrs, Real, "fmi2SetReal", setting=True) is None:
                 return
-            if len(self._settable_reals) >= _READER_CACHE:
-                self._settable_reals.clear()
-            self._settable_reals.add(key)
-        super().set_real(vrs, values)
+            if len(self._real_setters) >= _READER_CACHE:
+                self._real_setters.clear()
+            setters = self._real_setters[key] = tuple(self.vars[vr].setter for vr in key)  # checked: not None
+        for setter, value in zip(setters, values, strict=False):  # as pythonfmu: the host passes equal lengths
+            setter(value)
 
     def set_integer(self, vrs: list[int], values: list[int]) -> None:
         if self._variables(vrs, Integer, "fmi2SetInteger", setting=True) is not None:
