@@ -199,10 +199,10 @@ class RigidModel(SteppedModel[tuple]):
         e0 = pen0.energy if pen0 is not None else 0.0
         # predictor: explicit step with the force at q0
         force0 = torque - mgd * math.sin(q0) - (pen0.d_energy if pen0 is not None else 0.0)
-        u = dt * w0 + 0.5 * dt * dt * force0 / self.inertia
+        u = u0 = dt * w0 + 0.5 * dt * dt * force0 / self.inertia
         scale = mgd + 0.5 * self.inertia * w0 * w0 + e0 + abs(torque * u)  # energies this step moves
         lo, hi = -math.inf, math.inf
-        span = max(abs(u), dt * abs(w0), 1e-12)
+        span = 0.0  # the widening stride, set the first time Newton leaves an open bracket (rarely)
         for _ in range(NEWTON_MAX_IT):
             # G(u) = c (u - dt w0) - T + (V(q0 + u) - V(q0)) / u; gravity's quotient cancellation-free,
             # mgd sin(qm) sin(h) / h with h = u / 2 (inlined: this loop is the rigid model's inner loop)
@@ -231,11 +231,11 @@ class RigidModel(SteppedModel[tuple]):
                 hi = u
             u_new = u - g / dg if dg > 0.0 else math.nan
             if lo <= u_new <= hi:
-                du = abs(u_new - u)
+                du, size = abs(u_new - u), abs(u_new)
                 # converged: to round-off in u, or the energy still unbalanced, c |du| |u|,
                 # is at round-off of the energies (the contact energy carries relative noise
                 # ~1e-11 from the positions' round-off, which bounds how far u can settle)
-                if du <= 1e-15 * abs(u_new) + 1e-20 or c * du * abs(u_new) <= ENERGY_ROUNDOFF * scale:
+                if du <= 1e-15 * size + 1e-20 or c * du * size <= ENERGY_ROUNDOFF * scale:
                     return u_new
             if not lo < u_new < hi:  # Newton left the bracket (or G' <= 0): bisect or widen
                 if math.isfinite(lo) and math.isfinite(hi):
@@ -243,7 +243,7 @@ class RigidModel(SteppedModel[tuple]):
                     if u_new == lo or u_new == hi:
                         return u_new  # bracket exhausted at round-off
                 else:
-                    span *= 2.0
+                    span = 2.0 * (span or max(abs(u0), dt * abs(w0), 1e-12))
                     u_new = u + span if g < 0.0 else u - span
             u = u_new
         return None
