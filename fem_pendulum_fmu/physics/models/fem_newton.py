@@ -35,17 +35,18 @@ from .. import native
 from .fem_lu import HeldFactor
 from .fem_space import FemSpace, FemState
 
-# With the residual compiled (fem_residual.py) an iteration costs a hundredth of a re-assembly and
-# factorisation: the held Jacobian is kept while the corrections shrink by at least 2x (was 4x) and
-# converge within 20 iterations (was 12). The rubber scene's first 0.3 s: 287 re-assemblies and 4860
-# iterations before, 23 and 6183 after (docs/fem.md, "Profile and speed-up").
-NEWTON_MAX_IT = 20
-SLOWEST_CONTRACTION = 0.5
-# Converged when the last correction is under this share of the step's displacement (largest |dt v|), plus
-# 1e-15 m. 1e-10 before: 1e-9 takes 7 % fewer iterations on the steel swing, theta moves by 6e-10 rad and
-# the energy error stays 7e-9 of the swing; 1e-8 (15 % fewer) broke the hard cases' 1e-7 energy bounds
-# (tests/test_hard_cases.py: 2.6e-7 across an impact in 0.25 s communication steps).
-NEWTON_RTOL = 1e-9
+# With the residual compiled (fem_residual.py) an iteration costs about 0.16 ms on the rubber scene's mesh,
+# a re-assembly and factorisation about 8 ms: the held Jacobian is kept while the corrections shrink by at
+# least 1 / SLOWEST_CONTRACTION and would converge within NEWTON_MAX_IT iterations. Rubber, 2 s (four
+# impacts): 2x and 20 iterations took 701 re-assemblies from u0 + dt v0 and 349 (28369 iterations) from
+# FemModel._guess; 1.4x and 30 take 190 (33687 iterations): 6 % less time (docs/fem.md).
+NEWTON_MAX_IT = 30
+SLOWEST_CONTRACTION = 0.7
+# Converged when the error left (converged()) is under this share of the step's displacement (largest
+# |dt v|), plus 1e-15 m. 1e-9 took 7 % fewer iterations on the steel swing, but with the mean-velocity start
+# guess (FemModel._guess) the energy balance across an impact in 0.1 s doSteps moved to 3.5e-7 of the
+# energy moved (tests/test_hard_cases.py bounds it at 1e-7); with 1e-10 it stays under it.
+NEWTON_RTOL = 1e-10
 # A step size farther than this share from the held Jacobian's needs a new one (its inertia part goes as
 # 1/dt^2); closer, the contraction test decides. In contact the steps change by a few per mille each: on the
 # steel scene's impact this took 13 re-assemblies where an exact match took 40, for 2 % more residuals.
@@ -73,6 +74,8 @@ class JacobianPoint:
 # The step form's inertia term, (mass matrix over X, its coefficient as a function of dt), where the
 # Jacobian of a new step size is the held one with the inertia term rescaled; None: re-assembled
 Inertia = tuple[sp.csr_matrix, Callable[[float], float]]
+# guess(start state, dt): Newton's start iterate of u1
+Guess = Callable[[FemState, float], np.ndarray]
 # load(u0, v0, dt, torque, active head elements or None): set the step form's inputs
 # residual(w, res): the step form's residual at w into res (ngsolve vectors)
 Residual = Callable[[ngs.BaseVector, ngs.BaseVector], None]
@@ -106,6 +109,14 @@ class Turn:
         vec[self.iy] = s * vx + c * vy
 
 
+def converged(size: float, last: float, tol: float) -> bool:
+    """Whether a correction of `size` after one of `last` leaves an error under `tol`: at the contraction
+    r = size / last the error left is about r / (1 - r) times the correction, more than the correction
+    itself once r > 1/2 (a held Jacobian may contract that slowly: SLOWEST_CONTRACTION)."""
+    rate = size / last if last > 0.0 else 0.0
+    return size * max(1.0, rate / max(1.0 - rate, 1e-300)) <= tol
+
+
 def too_slow(size: float, last: float, tol: float, left: int) -> bool:
     """Whether to refresh the Jacobian after a correction of `size` that followed one of `last`: when the
     iterations contract by less than 1 / SLOWEST_CONTRACTION, or when at their rate they would not reach
@@ -134,6 +145,7 @@ class HeldJacobianNewton:
         load: Loader,
         active_now: Callable[[], np.ndarray],
         turn: Turn,
+        guess: Guess,
         inertia: Inertia | None = None,
     ):
         self.form = form  # the ngsolve BilinearForm of the step: its linearisation is the Jacobian
@@ -151,7 +163,7 @@ class HeldJacobianNewton:
         self._w_np = self.w.vec.FV().NumPy()  # the GridFunction's vector stays put
         self._lib = native.kernels()
         self._at = tuple(a.ctypes.data for a in (self._res_np, self._turned_np, self._corr_np, self._w_np))
-        self._load, self._active_now = load, active_now
+        self._load, self._active_now, self._guess = load, active_now, guess
         self._factor = HeldFactor(np.array(space.X.FreeDofs(), dtype=bool), None if inertia is None else inertia[0])
         self._inertia_coeff = None if inertia is None else inertia[1]
         self.held: JacobianPoint | None = None
@@ -172,7 +184,7 @@ class HeldJacobianNewton:
         """u1 of the step from xs (inputs loaded); None when Newton does not converge."""
         nV = self._nV
         wv = self._w_np
-        wv[:nV] = xs.u + dt * xs.v
+        wv[:nV] = self._guess(xs, dt)
         wv[nV:] = xs.lam
         res = self._res
         scale = max(float(np.max(np.abs(dt * xs.v))), 1e-12)
@@ -193,7 +205,7 @@ class HeldJacobianNewton:
             size = self._update(turn)
             if size < 0.0:
                 return None  # not finite
-            if size <= tol:
+            if converged(size, last, tol):
                 return wv[:nV].copy()
             refresh = too_slow(size, last, tol, NEWTON_MAX_IT - it - 1)
             last = size

@@ -27,6 +27,7 @@ class FemState:
     lam: np.ndarray  # the hinge multipliers
     torque_work: float
     a: np.ndarray | None = None  # acceleration, carried by the Newmark schemes only
+    drift: np.ndarray | None = None  # the mean velocity (u1 - u0) / dt of the energy-momentum step that led here
     energy: tuple[float, float] | None = None  # (total, in motion), computed when the energy guard asks
 
 
