@@ -144,7 +144,9 @@ def settings(curve: str, case: SceneCase) -> list[Setting]:
 
     The FE sweep is smaller on the costly scenes (rubber, deformable wall) so that a
     full sweep fits in about an hour on two cores."""
-    order = scene_of(case).model.order
+    from fem_pendulum_fmu.physics.scene import element_order
+
+    order = element_order(scene_of(case))
     costly = case.name in ("rubber", "deformable_wall")
     if curve == "fem":
         f = {"model.fidelity": "fem"}

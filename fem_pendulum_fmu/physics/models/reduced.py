@@ -107,7 +107,7 @@ class ReducedModel(SteppedModel[tuple]):
     fidelity = "reduced"
 
     def __init__(self, scene: Scene, basis: ModalBasis | None = None):
-        self.scene = validate(scene)
+        self.scene = scene = validate(scene)  # with model.order resolved
         refuse_deformable_wall(scene, self.fidelity)
         self.basis = b = basis if basis is not None else modal_basis(scene)
         self.m = b.count

@@ -11,14 +11,12 @@ import numpy as np
 
 from ..scene import Scene
 
-STIFF_WAVE_SPEED2 = 1e5  # m^2/s^2: E / rho above this strains stay ~1e-6 and the energy is quadratic (see below)
-
 
 def uses_linear_strain(scene: Scene) -> bool:
     """Stiff bodies (steel: strains ~1e-6) use the quadratic modal strain energy: exact to O(strain^3),
     while evaluating the Neo-Hookean energy there would lose ~4 digits to cancellation
     (tr C - 2 - 2 ln J is O(strain^2) from O(strain) terms). Soft bodies use the Neo-Hookean energy."""
-    return scene.pendulum.E / scene.pendulum.rho > STIFF_WAVE_SPEED2
+    return not scene.pendulum.soft
 
 
 class LinearStrain:

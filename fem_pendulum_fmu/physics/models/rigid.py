@@ -70,7 +70,7 @@ class RigidModel(SteppedModel[tuple]):
     fidelity = "rigid"
 
     def __init__(self, scene: Scene):
-        self.scene = validate(scene)
+        self.scene = scene = validate(scene)  # with model.order resolved
         refuse_deformable_wall(scene, self.fidelity)
         geo, mat = scene.geometry, scene.pendulum
         body = mass_properties(scene)
