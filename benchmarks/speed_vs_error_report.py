@@ -238,8 +238,8 @@ def write_report() -> None:
             "",
             f"fem on steel at default settings: {w:.2f} s wall per simulated second (median of "
             f"{len(steel['wall_per_sim'])}), {SEED_BASELINE_S / w:.0f}x less than the seed baseline's "
-            f"{SEED_BASELINE_S:g} s (target: at least 50x, i.e. at most {SEED_BASELINE_S / 50:.2f} s); the sweep's "
-            'row, measured under load: see "Speed and accuracy targets" for the re-measurement on a quieter machine.',
+            f"{SEED_BASELINE_S:g} s (target: at least 50x, i.e. at most {SEED_BASELINE_S / 50:.2f} s); how the "
+            'sweep was run (machine, load, runs per row) is under "How it was measured".',
         ]
     lines += ["", "### Below and left of the seed's schemes?", ""] + dominance(rows)
     for c in bench.SCENES:
