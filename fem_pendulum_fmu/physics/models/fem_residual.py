@@ -1,5 +1,5 @@
-"""The energy-momentum step form's residual, evaluated as NGSolve integrals of its nonlinear terms plus
-assembled matrices of its linear ones.
+"""The energy-momentum step form's residual without NGSolve's per-call element loop: assembled matrices
+for its linear terms, the compiled kernel for its stress, NGSolve only for the wall contact.
 
 Of the step form's 0.18 ms residual on the steel scene's default mesh, the
 inertia term alone, linear in the unknowns, cost 0.075 ms: a BilinearForm's
@@ -13,9 +13,12 @@ are therefore assembled once:
 * the follower torque at the midpoint configuration, T (w_t + T1 (u0 + u1) / 2):
   its load Cof(F) N is linear in F for 2 x 2 matrices.
 
-Only the elastic stress and the wall contact are integrated per call
-(the `nonlinear` form). The sum is the same residual as the full form's up to
-round-off, and the full form stays the source of the Newton Jacobian.
+The discrete-gradient stress is summed at the form's own integration points
+from precomputed basis gradients (`ElasticTerms`: physics/elastic_kernel.c,
+or numpy where it is not compiled), and only the wall contact, on the head
+elements within reach, is integrated by NGSolve. The sum is the same residual
+as the full form's up to round-off (tests/test_fem_residual.py), and the full
+form stays the source of the Newton Jacobian.
 """
 
 from __future__ import annotations
@@ -286,8 +289,8 @@ class ElasticTerms:
 
 class SplitResidual:
     """residual(w, res): the energy-momentum step form's residual at w into res (ngsolve vectors over X):
-    the stress in numpy, the linear terms as matrices, the rigid-wall contact integrated by NGSolve
-    on the head elements that can reach the block (none: nothing to integrate)."""
+    the stress (ElasticTerms), the linear terms as matrices, the wall contact integrated by NGSolve
+    while it can act (the rigid wall's head elements within reach, or the meshed wall's pairs)."""
 
     def __init__(
         self, elastic: ElasticTerms, linear: LinearTerms, contact: BilinearForm | None, active: ngs.BitArray | None
