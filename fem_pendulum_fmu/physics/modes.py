@@ -26,10 +26,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .scene import Scene, element_order
+from .sparse import scipy_matrix
 
 if TYPE_CHECKING:
     from ngsolve import CoefficientFunction, FESpace, Mesh
-    from ngsolve.la import BaseMatrix
     from scipy.sparse import csr_matrix
 
 BASIS_VERSION = 7  # bump when the reduction changes: part of the cache key
@@ -130,7 +130,7 @@ def assemble(scene: Scene) -> tuple[Mesh, FESpace, csr_matrix, csr_matrix, csr_m
     eps_u, eps_v = Sym(Grad(u)), Sym(Grad(v))
     stiffness = BilinearForm(h * (lam * Trace(eps_u) * Trace(eps_v) + 2.0 * mu * InnerProduct(eps_u, eps_v)) * dx)
     mass_form = BilinearForm(rho * h * InnerProduct(u, v) * dx)
-    K, M = _scipy(stiffness.Assemble().mat), _scipy(mass_form.Assemble().mat)
+    K, M = scipy_matrix(stiffness.Assemble().mat), scipy_matrix(mass_form.Assemble().mat)
     C = sp.csr_matrix(np.array([LinearForm(v[i] * ds("hinge")).Assemble().vec.FV().NumPy() for i in range(2)]))
     return mesh, V, K, M, C
 
@@ -158,14 +158,6 @@ def fe_space(scene: Scene) -> tuple[Mesh, FESpace]:
     order = element_order(scene)
     mesh = make_mesh(scene.geometry, scene.model.mesh_size, order)
     return mesh, VectorH1(mesh, order=order)
-
-
-def _scipy(matrix: BaseMatrix) -> csr_matrix:
-    import scipy.sparse as sp
-
-    rows, cols, vals = matrix.COO()
-    n = matrix.height
-    return sp.csr_matrix((np.array(vals), (np.array(rows), np.array(cols))), shape=(n, n))
 
 
 def load_corrections(
@@ -262,7 +254,7 @@ def compute_modes(scene: Scene) -> ModalBasis:
     l_x, l_y = functional(rho * h * v[0]), functional(rho * h * v[1])
     # NGSolve matrices are indexed [test, trial]: cross[k, l] = int rho h phi_l x phi_k, so
     # gyro_ij = int rho h phi_i x phi_j = (cross phi_i) . phi_j
-    cross = _scipy(BilinearForm(rho * h * (u[0] * v[1] - u[1] * v[0]) * dx).Assemble().mat)
+    cross = scipy_matrix(BilinearForm(rho * h * (u[0] * v[1] - u[1] * v[0]) * dx).Assemble().mat)
 
     head = head_points(mesh, HEAD_RULE_ORDER)
     head_X = np.array(pos(head.points))

@@ -39,7 +39,6 @@ SIGNATURES = {
     "femp_stress_residual": (_I, _P, _P, _P, _I, _P, _P, _P, _P, _D, _D, _I, _P, _P, _P),
     "femp_csr_axpy": (_I, _P, _P, _P, _D, _P, _P),
     "femp_lu_solve": (_I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P),
-    "femp_turn": (_I, _P, _P, _D, _D, _P),
     "femp_turned_solve": (_I, _P, _P, _D, _D, _I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _I),
     "femp_update": (_I, _I, _P, _P),
     "femp_min_det": (_I, _P, _P, _P, _I, _P),

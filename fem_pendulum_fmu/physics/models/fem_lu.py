@@ -18,6 +18,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
 from .. import native
+from ..sparse import scipy_matrix
 
 
 def _splu(matrix: sp.csc_matrix) -> spl.SuperLU:
@@ -77,13 +78,11 @@ class HeldFactor:
 
     def factorise(self, mat: ngs.BaseMatrix) -> None:
         """Factorise the free block of an assembled ngsolve matrix."""
-        rows, cols, vals = mat.COO()
-        full = sp.csr_matrix((np.array(vals), (np.array(rows), np.array(cols))), shape=(mat.height, mat.width))
-        assembled = full[self.free][:, self.free].tocsc()
+        assembled = scipy_matrix(mat)[self.free][:, self.free].tocsc()
         assembled.sort_indices()
         if self._pattern is None or not self._same_pattern(assembled):
-            self._pattern = Pattern.of(assembled)
-            self._mass_entries = None if self._mass is None else self._on_pattern(self._mass, assembled)
+            self._pattern = pattern = Pattern.of(assembled)
+            self._mass_entries = None if self._mass is None else self._on_pattern(self._mass, pattern)
         self._assembled = assembled.data
         self._use(self._assembled)
 
@@ -92,10 +91,9 @@ class HeldFactor:
         return p is not None and np.array_equal(p.indptr, matrix.indptr) and np.array_equal(p.indices, matrix.indices)
 
     @staticmethod
-    def _on_pattern(mass: sp.csc_matrix, assembled: sp.csc_matrix) -> np.ndarray | None:
+    def _on_pattern(mass: sp.csc_matrix, pattern: Pattern) -> np.ndarray | None:
         """The mass matrix's entries on the assembled matrix's pattern (None if that does not hold it)."""
-        n = assembled.shape[0]
-        pattern = Pattern.of(assembled)
+        n = len(pattern.indptr) - 1
         mass = mass.tocsc()
         mass.sort_indices()
         keys = pattern.columns.astype(np.int64) * n + pattern.indices  # sorted: columns, then rows

@@ -94,16 +94,13 @@ class Turn:
         self.ix = np.concatenate([ix, [space.nV]])  # the multipliers (q1, q2) turn as a vector too
         self.iy = np.concatenate([ix + half, [space.nV + 1]])
         self.angle = angle  # best-fit rigid rotation of a displacement about the pivot
-        self._lib = native.kernels()
         self.ix, self.iy = self.ix.astype(np.int32), self.iy.astype(np.int32)
+        # femp_turned_solve's leading arguments (native.py)
         self.kernel_args = (len(self.ix), self.ix.ctypes.data, self.iy.ctypes.data)
 
     def apply(self, vec: np.ndarray, d: float) -> None:
-        """Turn vec (contiguous) in place by d (rad)."""
+        """Turn vec in place by d (rad); the compiled path turns inside femp_turned_solve instead."""
         c, s = math.cos(d), math.sin(d)
-        if self._lib is not None:
-            self._lib.femp_turn(*self.kernel_args, c, s, vec.ctypes.data)
-            return
         vx, vy = vec[self.ix], vec[self.iy]
         vec[self.ix] = c * vx - s * vy
         vec[self.iy] = s * vx + c * vy

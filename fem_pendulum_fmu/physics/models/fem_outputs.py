@@ -18,8 +18,8 @@ from .. import contact as wall_contact
 from .. import material
 from ..fields import VertexSampler, body_field
 from ..protocol import BodyField, Outputs
+from ..sparse import scipy_matrix
 from .fem_head import HeadBoundary
-from .fem_residual import scipy_matrix
 from .fem_schemes import StepInputs
 from .fem_space import FemSpace, FemState
 from .fem_wall import CLEAR_OF_FACE, WallContact

@@ -34,15 +34,8 @@ from ngsolve import H1, TRIG, VOL, BilinearForm, Cof, Grad, InnerProduct, Integr
 from .. import material, native
 from .. import material_points as points
 from ..scene import Material
+from ..sparse import scipy_matrix
 from .fem_space import FemSpace
-
-
-def scipy_matrix(mat: ngs.BaseMatrix) -> sp.csr_matrix:
-    """The matrix in scipy's CSR form, with the int32 indices the kernel reads."""
-    rows, cols, vals = mat.COO()
-    csr = sp.csr_matrix((np.array(vals), (np.array(rows), np.array(cols))), shape=(mat.height, mat.width))
-    csr.indptr, csr.indices = csr.indptr.astype(np.int32), csr.indices.astype(np.int32)
-    return csr
 
 
 class LinearTerms:
@@ -90,7 +83,7 @@ class LinearTerms:
         np.copyto(constant, self.gravity)
         if torque_load != 0.0:
             constant += torque_load * self.torque_rest
-            self._axpy(2, 0.5 * torque_load, w0, constant)
+            self._add_torque_grad(0.5 * torque_load, w0, constant)
         self._coeffs = (inertia, 0.5 * torque_load)
 
     @staticmethod
@@ -98,12 +91,12 @@ class LinearTerms:
         """The inertia term's factor on the mass matrix: (2 / dt^2) M (u1 - u0 - dt v0)."""
         return 2.0 / (dt * dt)
 
-    def _axpy(self, which: int, a: float, x: np.ndarray, y: np.ndarray) -> None:
-        """y += a M x for the mass (0), hinge (1) or torque (2) matrix."""
+    def _add_torque_grad(self, a: float, x: np.ndarray, y: np.ndarray) -> None:
+        """y += a T1 x, T1 the torque load's matrix."""
         if self._lib is None:
-            y += a * ((self.mass, self.hinge, self.torque_grad)[which] @ x)
+            y += a * (self.torque_grad @ x)
         else:
-            self._lib.femp_csr_axpy(*self._args[which], a, x.ctypes.data, y.ctypes.data)
+            self._lib.femp_csr_axpy(*self._args[2], a, x.ctypes.data, y.ctypes.data)
 
     def add(self, w: np.ndarray, out: np.ndarray, at: tuple[int, int], first: bool) -> None:
         """out += the linear terms' residual at w (both contiguous, at the addresses `at`); first: out
