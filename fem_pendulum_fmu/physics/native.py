@@ -1,9 +1,11 @@
-"""Compiled inner loops (elastic_kernel.c): built once per machine with its C compiler, cached like meshes.
+"""Compiled inner loops (elastic_kernel.c, reduced_kernel.c): built once per machine, cached like meshes.
 
 At the FE model's size (300-700 unknowns) a residual is a few hundred
 thousand floating-point operations, which NGSolve's integrators and numpy
 alike spend ten times over in per-call and per-element overhead (docs/fem.md,
-"Profile and speed-up"). The kernel is plain C loaded with ctypes: no Python
+"Profile and speed-up"); the reduced fidelity's whole step, 13 unknowns by
+default, is a few ten thousand, which numpy spent in per-call overhead
+(docs/reduced.md). The kernels are plain C loaded with ctypes: no Python
 headers, no build step at install. Where there is no C compiler, or with
 FEM_PENDULUM_KERNELS=numpy, `kernels()` is None and callers use their numpy
 forms of the same computation (equal up to round-off; each run is
@@ -26,10 +28,10 @@ from pathlib import Path
 from .cache import cached_file
 
 LOG = logging.getLogger("fem_pendulum_fmu")
-SOURCE = Path(__file__).with_name("elastic_kernel.c")
+SOURCES = tuple(Path(__file__).with_name(name) for name in ("elastic_kernel.c", "reduced_kernel.c"))
 ENV = "FEM_PENDULUM_KERNELS"  # "numpy": never compile, use the numpy forms
 # no -ffast-math and no contraction into fused multiply-adds: the same sums in the same order on every run
-FLAGS = ("-O2", "-shared", "-fPIC", "-ffp-contract=off")
+FLAGS = ("-O3", "-shared", "-fPIC", "-ffp-contract=off")
 
 _P = ctypes.c_void_p
 _I = ctypes.c_int
@@ -43,8 +45,18 @@ SIGNATURES = {
     "femp_update": (_I, _I, _P, _P),
     "femp_min_det": (_I, _P, _P, _P, _I, _P),
     "femp_strain_energy": (_I, _P, _P, _P, _I, _P, _P, _D, _D),
+    "femp_reduced_strain_energy": (_P, _P),
+    "femp_reduced_strain_gradient": (_P, _P, _P),
+    "femp_reduced_strain_hessian": (_P, _P, _P),
+    "femp_reduced_gap": (_P, _P),
+    "femp_reduced_contact": (_P, _P, _P),
+    "femp_reduced_step": (_P, _P, _P, _D, _D, _D, _P, _P, _P),
 }
-RESULTS = {name: ctypes.c_double for name in ("femp_update", "femp_min_det", "femp_strain_energy")}
+RESULTS = {
+    **{name: ctypes.c_double for name in ("femp_update", "femp_min_det", "femp_strain_energy")},
+    **{name: ctypes.c_double for name in ("femp_reduced_strain_energy", "femp_reduced_gap")},
+    "femp_reduced_step": ctypes.c_int,
+}
 
 
 def _compiler() -> str | None:
@@ -52,7 +64,7 @@ def _compiler() -> str | None:
 
 
 def _compile(compiler: str, output: Path) -> None:
-    command = [compiler, *FLAGS, "-o", str(output), str(SOURCE), "-lm"]
+    command = [compiler, *FLAGS, "-o", str(output), *map(str, SOURCES), "-lm"]
     subprocess.run(command, check=True, capture_output=True, timeout=120)
 
 
@@ -63,9 +75,9 @@ def kernels() -> ctypes.CDLL | None:
         return None
     compiler = _compiler()
     if compiler is None:
-        LOG.info("no C compiler found: the FE residual runs in its numpy form")
+        LOG.info("no C compiler found: the FE residual and the reduced step run in their numpy forms")
         return None
-    source = SOURCE.read_bytes()
+    source = b"".join(path.read_bytes() for path in SOURCES)
     key = {"source": hashlib.sha256(source).hexdigest(), "compiler": compiler, "flags": FLAGS}
     key["machine"] = platform.machine()
     try:
@@ -75,7 +87,7 @@ def kernels() -> ctypes.CDLL | None:
             _compile(compiler, path)
         lib = ctypes.CDLL(str(path))
     except (OSError, subprocess.SubprocessError) as exc:
-        LOG.warning("the FE kernel did not build (%s): the FE residual runs in its numpy form", exc)
+        LOG.warning("the kernels did not build (%s): the FE residual and the reduced step run in numpy", exc)
         return None
     for name, args in SIGNATURES.items():
         fn = getattr(lib, name)

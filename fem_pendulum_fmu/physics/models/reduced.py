@@ -39,6 +39,7 @@ from ..modes import ModalBasis, modal_basis
 from ..protocol import BodyField, ModelState, Outputs, last_advance_scalars, restore_last_advance, restored_min_gap
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
+from .reduced_native import ReducedKernel, reduced_kernel
 from .reduced_strain import LinearStrain, NeoHookeanStrain, uses_linear_strain
 
 if TYPE_CHECKING:
@@ -144,6 +145,7 @@ class ReducedModel(SteppedModel[tuple]):
         self._sampler: VertexSampler | None = None
         self._strain = strain_energy(scene, b)
         self._nonlinear_strain = not isinstance(self._strain, LinearStrain)  # the tangent changes with q
+        self._kernel = self._bind_kernel()
         z0 = np.zeros(self.n)
         z0[0] = float(scene.theta0)
         p0 = self.mass_matrix(z0) @ np.concatenate([[float(scene.omega0)], np.zeros(self.m)])
@@ -166,6 +168,44 @@ class ReducedModel(SteppedModel[tuple]):
         self._head_X = b.head_X
         self._head_phi_pairs = b.head_phi.reshape(P, -1)  # (P, 2m): a point's x row, then its y row
         self._head_phi_rows = b.head_phi  # (P, 2, m)
+
+    def _bind_kernel(self) -> ReducedKernel | None:
+        """The compiled step (physics/reduced_kernel.c) on this model's data, or None (numpy forms)."""
+        b, blk = self.basis, self.block
+        runs = np.flatnonzero(np.diff(self._group_of_point)) + 1
+        return reduced_kernel(
+            **self._strain.kernel_fields(),
+            inertia0=self.inertia0,
+            g=self._g,
+            hk=self._hk,
+            gyro=b.gyro,
+            a=b.a,
+            first_moment=b.first_moment,
+            moment_modes=b.moment_modes,
+            q_unit=self._Q,
+            contact_on=int(self.contact_on),
+            x_min=blk.x_min,
+            x_max=blk.x_max,
+            y_min=blk.y_min,
+            y_max=blk.y_max,
+            head_cx=self._head_centre[0],
+            head_cy=self._head_centre[1],
+            head_radius=self._head_radius,
+            phi_peak=self._phi_peak,
+            P=len(b.head_X),
+            head_X=b.head_X,
+            head_phi=b.head_phi,
+            head_w=b.head_weights,
+            groups=len(self._group_centre),
+            group_start=np.concatenate([[0], runs, [len(b.head_X)]]),
+            group_centre=self._group_centre,
+            group_radius=self._group_radius,
+            group_peak=self._group_peak,
+            max_it=NEWTON_MAX_IT,
+            update_tol=UPDATE_TOL,
+            energy_tol=ENERGY_TOL,
+            stall_tol=STALL_TOL,
+        )
 
     # ---------------------------------------------------------------- energies
     def _mass_parts(self, q: np.ndarray) -> tuple[float, np.ndarray, float]:
@@ -274,6 +314,9 @@ class ReducedModel(SteppedModel[tuple]):
         """_contact's terms summed over the head points inside the block. Inside, the signed distance
         is max(qx, qy) < 0 and its gradient the nearer face's normal (contact.box_signed_distance's
         values for such points, computed here without its general case)."""
+        if self._kernel is not None:
+            terms = self._kernel.contact(z)
+            return self._no_contact if terms is None else terms
         candidates, world = self._candidates(z, 0.0, 0.0)
         blk = self.block
         px, py = world[:, 0], world[:, 1]
@@ -339,6 +382,8 @@ class ReducedModel(SteppedModel[tuple]):
         linearised predictor Newton contracts by ~3e-4 per iteration, so an update of 1e-3 leaves an
         error ~1e-6 of the step: over 0.6 s of rubber impacts the angle stays within 3e-4 degree and the
         gap within 1 micrometre of steps converged to updates of 1e-8 (docs/reduced.md)."""
+        if self._kernel is not None:
+            return self._compiled_step(x, dt, torque, self._kernel)
         start = self._start(x[0], x[1], torque)
         scale = 0.5 * abs(start.t00) + abs(start.V0) + 1e-12
         z1, K_strain = self._predict(start, dt)
@@ -357,6 +402,15 @@ class ReducedModel(SteppedModel[tuple]):
             ):
                 return (z1, p1, x[2] + float(start.Q @ dz))
         return None
+
+    def _compiled_step(self, x: tuple, dt: float, torque: float, kernel: ReducedKernel) -> tuple | None:
+        """step() in physics/reduced_kernel.c; the end's potential parts remembered for the outputs."""
+        done = kernel.step(x[0], x[1], self.potential_energy(x[0]), dt, torque)
+        if done is None:
+            return None
+        z1, p1, work, parts = done
+        self._parts_memo = (z1, parts)
+        return (z1, p1, x[2] + work)
 
     def _energy_balance(self, start: _StepStart, z1: np.ndarray, dt: float) -> tuple[np.ndarray, float, np.ndarray]:
         """(p1, |energy change - torque work|, dz) of the step ending at z1: dz . residual / dt without
@@ -609,6 +663,8 @@ class ReducedModel(SteppedModel[tuple]):
 
     def _gap(self, z: np.ndarray) -> float:
         """The smallest signed distance of the head points to the block (the gap output)."""
+        if self._kernel is not None:
+            return self._kernel.gap(z)
         return float(np.min(self._near_points(z, 0.0)[2]))
 
     def _circle_gap(self, x: tuple) -> tuple[float, float]:

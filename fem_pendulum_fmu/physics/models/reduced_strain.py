@@ -1,8 +1,8 @@
 """Strain energy of the reduced fidelity's modal field (models/reduced.py).
 
 Stiff bodies use the quadratic modal energy, soft ones the FE model's Neo-Hookean law integrated
-over the mesh's quadrature points in numpy: the reduced model's hot loop never calls into the FE
-assembly.
+over the mesh's quadrature points, compiled (physics/reduced_kernel.c) or in numpy: the reduced
+model's hot loop never calls into the FE assembly.
 """
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import Scene
+from .reduced_native import reduced_kernel
 
 
 def uses_linear_strain(scene: Scene) -> bool:
@@ -25,6 +26,10 @@ class LinearStrain:
     def __init__(self, omega2: np.ndarray):
         self.omega2 = omega2
         self.linear_hessian = np.diag(omega2)
+
+    def kernel_fields(self) -> dict:
+        """This energy's fields of the compiled kernel's data (models/reduced_native.py)."""
+        return {"m": len(self.omega2), "neo": 0, "omega2": self.omega2}
 
     def energy(self, q: np.ndarray) -> float:
         return 0.5 * float(self.omega2 @ (q * q))
@@ -64,6 +69,25 @@ class NeoHookeanStrain:
         self._G = G.reshape(-1, phi.shape[1])
         self._lam, self._mu = scene.pendulum.lame
         self.linear_hessian = np.diag(omega2)  # the tangent at q = 0
+        self._omega2 = omega2
+        self._kernel = reduced_kernel(**self.kernel_fields())
+
+    def kernel_fields(self) -> dict:
+        """This energy's fields of the compiled kernel's data (models/reduced_native.py)."""
+        m, nqp = len(self._omega2), len(self._weights)
+        weighted = self._G * np.repeat(self._weights, 4)[:, None]
+        return {
+            "m": m,
+            "neo": 1,
+            "omega2": self._omega2,
+            "nqp": nqp,
+            "GT": self._G.T,
+            "qw": self._weights,
+            "k_mu": self._mu * (weighted.T @ self._G),
+            "lam": self._lam,
+            "mu": self._mu,
+            "work": np.zeros(nqp * (4 + 10 * m)),
+        }
 
     def _kinematics(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         F = (self._G @ q).reshape(-1, 2, 2)
@@ -73,6 +97,8 @@ class NeoHookeanStrain:
         return F, J
 
     def energy(self, q: np.ndarray) -> float:
+        if self._kernel is not None:
+            return self._kernel.strain_energy(q)
         F, J = self._kinematics(q)
         with np.errstate(invalid="ignore", divide="ignore"):
             log_j = np.log(J)  # nan for an inverted point: the step fails and is retried smaller
@@ -90,6 +116,8 @@ class NeoHookeanStrain:
             return inv, np.log(J)
 
     def gradient(self, q: np.ndarray) -> np.ndarray:
+        if self._kernel is not None:
+            return self._kernel.strain_gradient(q)
         F, J = self._kinematics(q)
         inv, log_j = self._inverse_and_log(F, J)
         inv_t = inv.transpose(0, 2, 1)
@@ -99,6 +127,8 @@ class NeoHookeanStrain:
     def hessian(self, q: np.ndarray) -> np.ndarray:
         """Exact tangent: sum_p w_p G_p^T A_p G_p with the Neo-Hookean elasticity tensor
         A_iJkL = mu d_ik d_JL + (mu - lam ln J) Fi_Li Fi_Jk + lam Fi_Ji Fi_Lk (Fi = F^-1)."""
+        if self._kernel is not None:
+            return self._kernel.strain_hessian(q)
         F, J = self._kinematics(q)
         inv, log_j = self._inverse_and_log(F, J)
         n = len(J)
