@@ -87,23 +87,27 @@ class ReducedKernel:
                 setattr(data, name, value)
         self._data = data
         self._ref = ctypes.byref(data)
-        self.n = int(fields["m"]) + 1
-        self._out = np.empty(4)
-        self._contact = np.empty(4 + self.n + self.n * self.n)
+        self.n = n = int(fields["m"]) + 1
+        # fixed buffers, their addresses taken once: (z0, p0) in, (z1, p1, work and energies) out
+        self._in, self._out = np.empty(2 * n), np.empty(2 * n + 4)
+        self._in_at, self._out_at = _pointer(self._in), _pointer(self._out)
+        self._contact = np.empty(4 + n + n * n)
 
     def step(
         self, z0: np.ndarray, p0: np.ndarray, V0: float, dt: float, torque: float
     ) -> tuple[np.ndarray, np.ndarray, float, tuple[float, float, float]] | None:
         """(z1, p1, the step's torque work, (gravity, contact, strain) energies at z1), or None when
         Newton does not converge."""
-        z1, p1 = np.empty(self.n), np.empty(self.n)
-        ok = self._lib.femp_reduced_step(
-            self._ref, _pointer(z0), _pointer(p0), V0, dt, torque, _pointer(z1), _pointer(p1), _pointer(self._out)
-        )
-        if not ok:
+        n, buffer, out = self.n, self._in, self._out
+        buffer[:n] = z0
+        buffer[n:] = p0
+        at, out_at = self._in_at, self._out_at
+        if not self._lib.femp_reduced_step(
+            self._ref, at, at + 8 * n, V0, dt, torque, out_at, out_at + 8 * n, out_at + 16 * n
+        ):
             return None
-        out = self._out
-        return z1, p1, float(out[0]), (float(out[1]), float(out[2]), float(out[3]))
+        work, gravity, contact, strain = out[2 * n :].tolist()
+        return out[:n].copy(), out[n : 2 * n].copy(), work, (gravity, contact, strain)
 
     def gap(self, z: np.ndarray) -> float:
         return float(self._lib.femp_reduced_gap(self._ref, _pointer(z)))
