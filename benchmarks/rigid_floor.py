@@ -16,6 +16,15 @@ run other threads beside it, which process_time counts) and wall time per
 simulated second of the stepping loop (instantiation excluded), median of
 --repeat runs each (alternating, so that load from other jobs hits both
 alike), their ratios, and the load average before and after.
+
+    python benchmarks/rigid_floor.py --instructions [--fmu ...] [--stop-time 2]
+
+counts instead what the load cannot change: each FMU runs the same loop under
+valgrind's callgrind, for --stop-time and for one step; printed per doStep are
+the instructions inside the FMU's fmi2DoStep, fmi2SetReal and fmi2GetReal
+(inclusive, the *_core.so entries: pythonfmu and the slave's Python) and those
+of the whole loop (the two runs' difference, fmpy's side included), with the
+whole loop's ratio.
 """
 
 from __future__ import annotations
@@ -23,6 +32,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -142,6 +152,62 @@ def run(fmu: Path, identifier: str, stop: float, step: float, integers: dict[str
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+CALLS = ("fmi2DoStep", "fmi2SetReal", "fmi2GetReal")
+ANNOTATED = re.compile(r"\s*([\d,]+) .*:(fmi2\w+) \[.*_core\.so\]")
+
+
+def count_instructions(fmu: Path, identifier: str, stop: float, step: float, integers: dict[str, int]) -> dict:
+    """One run under callgrind: the instructions inside each of CALLS summed over the run (inclusive),
+    and the process's total ("process")."""
+    with tempfile.TemporaryDirectory(prefix="rigid_floor_cg_") as tmp:
+        out = Path(tmp) / "callgrind.out"
+        args = [str(fmu), identifier, repr(stop), repr(step), json.dumps(integers)]
+        subprocess.run(
+            ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", sys.executable, "-c", DRIVER, *args],
+            capture_output=True,
+            check=True,
+            env={**os.environ, "PYTHONHASHSEED": "0"},
+        )
+        text = subprocess.run(
+            ["callgrind_annotate", "--inclusive=yes", "--threshold=100", str(out)],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout
+    counts = dict.fromkeys(CALLS, 0)
+    for line in text.splitlines():
+        m = ANNOTATED.match(line)
+        if m and m[2] in counts:
+            counts[m[2]] += int(m[1].replace(",", ""))
+        elif "PROGRAM TOTALS" in line:
+            counts["process"] = int(line.split()[0].replace(",", ""))
+    return counts
+
+
+def report_instructions(floor: Path, fmu: Path, args: argparse.Namespace, integers: dict[str, int]) -> None:
+    """Print the instructions per doStep of both FMUs (see the module's docstring): inside the FMU's
+    calls, and of the whole loop (the process's total of the run less that of a one-step run, so that
+    start-up cancels and fmpy's side of the calls is counted as in the CPU times)."""
+    n = round(args.stop_time / args.step)
+    per_step = {}
+    fmus = (("floor", floor, FLOOR_ID, {}), (args.fidelity, fmu, "FemPendulum", integers))
+    for name, path, identifier, values in fmus:
+        full = count_instructions(path, identifier, args.stop_time, args.step, values)
+        one = count_instructions(path, identifier, args.step, args.step, values)
+        per_step[name] = {c: (full[c] - one[c]) / (n - 1) for c in (*CALLS, "process")}
+    print(f"instructions per doStep (callgrind; {n} doSteps less 1, inclusive counts inside the FMU's calls)")
+    print("| FMU | " + " | ".join(CALLS) + " | in the calls | whole loop |")
+    print("|---|" + "---|" * (len(CALLS) + 2))
+    for k, c in per_step.items():
+        calls = " | ".join(f"{c[call]:,.0f}" for call in CALLS)
+        print(f"| {k} | {calls} | {sum(c[call] for call in CALLS):,.0f} | {c['process']:,.0f} |")
+    loop = {k: c["process"] for k, c in per_step.items()}
+    print(
+        f"ratio {args.fidelity} / floor, whole loop: {loop[args.fidelity] / loop['floor']:.3f} "
+        f"({loop[args.fidelity] - loop['floor']:,.0f} more per doStep)"
+    )
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--fmu", type=Path, default=Path("dist") / "FemPendulum.fmu")
@@ -149,8 +215,13 @@ def main() -> None:
     p.add_argument("--stop-time", type=float, default=2.0)
     p.add_argument("--step", type=float, default=1e-3)
     p.add_argument("--fidelity", default="rigid")
+    p.add_argument("--instructions", action="store_true", help="count instructions under callgrind instead")
     args = p.parse_args()
     fidelity = fmi_interface.load().by_name("model.fidelity").item_number(args.fidelity)
+    if args.instructions:
+        with tempfile.TemporaryDirectory(prefix="rigid_floor_") as tmp:
+            report_instructions(build_floor(Path(tmp)), args.fmu.resolve(), args, {"model.fidelity": fidelity})
+        return
     load_before = os.getloadavg()
     runs: dict[str, list[dict]] = {"floor": [], args.fidelity: []}
     with tempfile.TemporaryDirectory(prefix="rigid_floor_") as tmp:
