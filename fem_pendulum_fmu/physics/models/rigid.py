@@ -52,6 +52,27 @@ NO_CONTACT = rigid_contact.Penalty(0.0, 0.0, 0.0, 0.0, 0.0)
 TWO_PI = 2.0 * math.pi
 
 
+def _gravity_quotient(mgd: float, q0: float, u: float) -> tuple[float, float]:
+    """(V(q0 + u) - V(q0)) / u for gravity's V = -mgd cos q, and its derivative in u, free of
+    cancellation: mgd sin(qm) sin(h) / h with h = u / 2, qm = q0 + h."""
+    h = 0.5 * u
+    if abs(h) > 1e-4:
+        sin_h = math.sin(h)
+        sinc, dsinc = sin_h / h, (h * math.cos(h) - sin_h) / (h * h)
+    else:
+        h2 = h * h
+        sinc, dsinc = 1.0 - h2 / 6.0 + h2 * h2 / 120.0, h * (-1.0 / 3.0 + h2 / 30.0)
+    s_m, c_m = math.sin(q0 + h), math.cos(q0 + h)
+    return mgd * s_m * sinc, 0.5 * mgd * (c_m * sinc + s_m * dsinc)
+
+
+def _converged(du: float, size: float, c: float, scale: float) -> bool:
+    """Newton's stopping test on an update du to u of size `size`: du at round-off in u, or the energy
+    still unbalanced, c du |u|, at round-off of the energies the step moves (the contact energy
+    carries relative noise ~1e-11 from the positions' round-off, which bounds how far u can settle)."""
+    return du <= 1e-15 * size + 1e-20 or c * du * size <= ENERGY_ROUNDOFF * scale
+
+
 def _free_newton_gain(c: float, mgd: float) -> float:
     """K with |u1 - u*| <= K (u1 - u0)^2 for a Newton update u0 -> u1 of the step without contact.
 
@@ -205,6 +226,10 @@ class RigidModel(SteppedModel[tuple]):
     def _solve(self, q0: float, w0: float, dt: float, torque: float, contact: bool) -> float | None:
         """The increment u = q1 - q0 solving G(u) = 0 (Newton, safeguarded by a bracket); `contact`
         False leaves the contact energy out (a step that provably never reaches the block)."""
+        if not contact:
+            u_free = self._free_solve(q0, w0, dt, torque)
+            if u_free is not None:
+                return u_free
         c = 2.0 * self.inertia / (dt * dt)
         mgd = self._mgd
         pen0 = self._contact(q0)[1] if contact else None
@@ -213,22 +238,11 @@ class RigidModel(SteppedModel[tuple]):
         force0 = torque - mgd * math.sin(q0) - (pen0.d_energy if pen0 is not None else 0.0)
         u = u0 = dt * w0 + 0.5 * dt * dt * force0 / self.inertia
         scale = mgd + 0.5 * self.inertia * w0 * w0 + e0 + abs(torque * u)  # energies this step moves
-        newton_gain = math.inf if contact else _free_newton_gain(c, abs(mgd))
         lo, hi = -math.inf, math.inf
         span = 0.0  # the widening stride, set the first time Newton leaves an open bracket (rarely)
         for _ in range(NEWTON_MAX_IT):
-            # G(u) = c (u - dt w0) - T + (V(q0 + u) - V(q0)) / u; gravity's quotient cancellation-free,
-            # mgd sin(qm) sin(h) / h with h = u / 2 (inlined: this loop is the rigid model's inner loop)
-            h = 0.5 * u
-            if abs(h) > 1e-4:
-                sin_h = math.sin(h)
-                sinc, dsinc = sin_h / h, (h * math.cos(h) - sin_h) / (h * h)
-            else:
-                h2 = h * h
-                sinc, dsinc = 1.0 - h2 / 6.0 + h2 * h2 / 120.0, h * (-1.0 / 3.0 + h2 / 30.0)
-            s_m, c_m = math.sin(q0 + h), math.cos(q0 + h)
-            quot = mgd * s_m * sinc
-            dquot = 0.5 * mgd * (c_m * sinc + s_m * dsinc)
+            # G(u) = c (u - dt w0) - T + (V(q0 + u) - V(q0)) / u
+            quot, dquot = _gravity_quotient(mgd, q0, u)
             if contact:
                 qc, dqc = self._contact_quotient(q0, u, e0)
                 quot += qc
@@ -243,18 +257,8 @@ class RigidModel(SteppedModel[tuple]):
             else:
                 hi = u
             u_new = u - g / dg if dg > 0.0 else math.nan
-            if lo <= u_new <= hi:
-                du, size = abs(u_new - u), abs(u_new)
-                # converged: to round-off in u, or the energy still unbalanced, c |du| |u|,
-                # is at round-off of the energies (the contact energy carries relative noise
-                # ~1e-11 from the positions' round-off, which bounds how far u can settle)
-                if du <= 1e-15 * size + 1e-20 or c * du * size <= ENERGY_ROUNDOFF * scale:
-                    return u_new
-                # in free flight, the next update is bounded a priori (_free_newton_gain): accept u_new
-                # when that bound already passes the same test, without evaluating G once more
-                du = newton_gain * du * du
-                if du <= 1e-15 * size + 1e-20 or c * du * size <= ENERGY_ROUNDOFF * scale:
-                    return u_new
+            if lo <= u_new <= hi and _converged(abs(u_new - u), abs(u_new), c, scale):
+                return u_new
             if not lo < u_new < hi:  # Newton left the bracket (or G' <= 0): bisect or widen
                 if math.isfinite(lo) and math.isfinite(hi):
                     u_new = 0.5 * (lo + hi)
@@ -264,6 +268,26 @@ class RigidModel(SteppedModel[tuple]):
                     span = 2.0 * (span or max(abs(u0), dt * abs(w0), 1e-12))
                     u_new = u + span if g < 0.0 else u - span
             u = u_new
+        return None
+
+    def _free_solve(self, q0: float, w0: float, dt: float, torque: float) -> float | None:
+        """_solve without contact as one Newton update from the explicit predictor, accepted when the
+        next update, bounded a priori (_free_newton_gain), would pass the stopping test; None when it
+        would not (then _solve iterates). This is a free-flight step's whole solve."""
+        inertia, mgd = self.inertia, self._mgd
+        c = 2.0 * inertia / (dt * dt)
+        u = dt * w0 + 0.5 * dt * dt * (torque - mgd * math.sin(q0)) / inertia
+        quot, dquot = _gravity_quotient(mgd, q0, u)
+        g, dg = c * (u - dt * w0) - torque + quot, c + dquot
+        if not (dg > 0.0 and math.isfinite(g) and math.isfinite(dg)):
+            return None
+        if g == 0.0:
+            return u
+        u_new = u - g / dg
+        du, size = abs(u_new - u), abs(u_new)
+        scale = mgd + 0.5 * inertia * w0 * w0 + abs(torque * u)
+        if _converged(du, size, c, scale) or _converged(_free_newton_gain(c, abs(mgd)) * du * du, size, c, scale):
+            return u_new
         return None
 
     # ------------------------------------------------------------- advance
