@@ -384,8 +384,10 @@ def clear_gap(cx: float, cy: float, radius: float, start: float, length: float, 
     """signed_gap's gap for the arc (cx, cy, radius, start, length) when its fast path applies (the
     circle clear of the block, its point facing the block on the arc), by the same arithmetic;
     None otherwise. Without building an Arc: the rigid model's free flight asks it every step."""
-    qx = min(max(cx, block.x_min), block.x_max)
-    qy = min(max(cy, block.y_min), block.y_max)
+    # the block's point nearest the centre (conditionals: builtin min and max cost a microsecond here)
+    x_min, x_max, y_min, y_max = block.x_min, block.x_max, block.y_min, block.y_max
+    qx = x_min if cx < x_min else x_max if cx > x_max else cx
+    qy = y_min if cy < y_min else y_max if cy > y_max else cy
     dist_c = math.hypot(cx - qx, cy - qy)
     if dist_c > radius and (math.atan2(qy - cy, qx - cx) - start) % TWO_PI <= length:
         return dist_c - radius

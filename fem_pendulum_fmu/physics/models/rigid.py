@@ -234,9 +234,12 @@ class RigidModel(SteppedModel[tuple]):
         mgd = self._mgd
         pen0 = self._contact(q0)[1] if contact else None
         e0 = pen0.energy if pen0 is not None else 0.0
-        # predictor: explicit step with the force at q0
+        # predictor: G linearised about u = 0 (the explicit step with the force at q0, stiffened by the
+        # contact's and gravity's d2V/dq2 at q0: in contact the stiffness matters)
         force0 = torque - mgd * math.sin(q0) - (pen0.d_energy if pen0 is not None else 0.0)
-        u = u0 = dt * w0 + 0.5 * dt * dt * force0 / self.inertia
+        stiff = 0.5 * (mgd * math.cos(q0) + pen0.d2_energy) if pen0 is not None and pen0.d2_energy > 0.0 else 0.0
+        explicit = dt * w0 + 0.5 * dt * dt * force0 / self.inertia
+        u = u0 = (c * dt * w0 + force0) / (c + stiff) if stiff > 0.0 else explicit
         scale = mgd + 0.5 * self.inertia * w0 * w0 + e0 + abs(torque * u)  # energies this step moves
         lo, hi = -math.inf, math.inf
         span = 0.0  # the widening stride, set the first time Newton leaves an open bracket (rarely)
@@ -262,8 +265,8 @@ class RigidModel(SteppedModel[tuple]):
             if not lo < u_new < hi:  # Newton left the bracket (or G' <= 0): bisect or widen
                 if math.isfinite(lo) and math.isfinite(hi):
                     u_new = 0.5 * (lo + hi)
-                    if u_new == lo or u_new == hi:
-                        return u_new  # bracket exhausted at round-off
+                    if u_new == lo or u_new == hi or _converged(0.5 * (hi - lo), abs(u_new), c, scale):
+                        return u_new  # bracket exhausted at round-off, or as narrow as the stopping test asks
                 else:
                     span = 2.0 * (span or max(abs(u0), dt * abs(w0), 1e-12))
                     u_new = u + span if g < 0.0 else u - span
@@ -286,9 +289,8 @@ class RigidModel(SteppedModel[tuple]):
         u_new = u - g / dg
         du, size = abs(u_new - u), abs(u_new)
         scale = mgd + 0.5 * inertia * w0 * w0 + abs(torque * u)
-        if _converged(du, size, c, scale) or _converged(_free_newton_gain(c, abs(mgd)) * du * du, size, c, scale):
-            return u_new
-        return None
+        bound = _free_newton_gain(c, abs(mgd)) * du * du  # the next update's: accept if either passes
+        return u_new if _converged(du if du < bound else bound, size, c, scale) else None
 
     # ------------------------------------------------------------- advance
     def advance(self, t_end: float, torque: float) -> Outputs:
@@ -308,28 +310,46 @@ class RigidModel(SteppedModel[tuple]):
         zero over the whole step, and the step without the contact law is the discrete-gradient
         step itself. Its outputs are those of `_compute_outputs`, without the contact evaluations."""
         dt = t_end - self.time
-        gap0 = self._outputs.gap
-        if dt > self.control.max_step or (self.contact_on and not gap0 > FREE_MARGIN):
+        last = self._outputs
+        gap0, contact_on = last.gap, self.contact_on
+        if dt > self.control.max_step or (contact_on and not gap0 > FREE_MARGIN):
             return None
         q0, w0, work = self._x
-        u = self._solve(q0, w0, dt, torque, False)
-        if u is None or (self.contact_on and not gap0 > self._reach * abs(u) + FREE_MARGIN):
+        u = self._free_solve(q0, w0, dt, torque)
+        if u is None:
+            u = self._solve(q0, w0, dt, torque, False)
+        if u is None or (contact_on and not gap0 > self._reach * abs(u) + FREE_MARGIN):
             return None
         q1 = q0 + u
         x = (q1, 2.0 * u / dt - w0, work + torque * u)
-        D, R = self._depth, self._radius
+        D = self._depth
         gap1 = rigid_contact.clear_gap(
-            D * math.sin(q1), -D * math.cos(q1), R, q1 + self._arc_offset, self._arc_length, self.block
+            D * math.sin(q1), -D * math.cos(q1), self._radius, q1 + self._arc_offset, self._arc_length, self.block
         )
         if gap1 is None:  # the arc's end is nearest: signed_gap's exact outside distance
             gap1 = rigid_contact.signed_gap(self.arc(q1), self.block)[0]
-        out = self._compute_outputs(x, t_end, 1, gap1)
         # as the stepper reports it: the smallest gap at the step's ends (only the end's without a wall),
-        # no contact force or impulse (Outputs' defaults), the contact's hold shrinking
-        self.last_min_gap = out.min_gap = min(gap0, gap1) if self.contact_on else gap1
-        out.contact_hold = max(self._outputs.contact_hold - HOLD_DECAY * dt, 0.0)
-        self._x, self.time, self._outputs = x, t_end, out
+        # no contact force or impulse, the contact's hold shrinking
+        min_gap = gap0 if contact_on and gap0 < gap1 else gap1
+        hold = last.contact_hold - HOLD_DECAY * dt
+        out = self._free_outputs(x, t_end, gap1, min_gap, hold if hold > 0.0 else 0.0)
+        self._x, self.time, self._outputs, self.last_min_gap = x, t_end, out, min_gap
         return out
+
+    def _free_outputs(self, x: tuple, t: float, gap: float, min_gap: float, hold: float) -> Outputs:
+        """`_compute_outputs` of a free-flight step's end x (off the block, at gap `gap`), with the
+        advance's min_gap and contact_hold and no contact force or impulse, built in one call."""
+        q, w, work = x
+        kinetic = 0.5 * self.inertia * w * w
+        potential = -self._mgd * math.cos(q)
+        total = kinetic + potential + 0.0  # as _compute_outputs: plus the (zero) contact energy
+        # positional, in the order of Outputs' fields: time, theta, omega, gap, contact_force, kinetic,
+        # potential, strain, contact, total, torque_work, von_mises_max, substeps, min_gap,
+        # contact_force_max, contact_impulse, contact_hold
+        return Outputs(
+            t, math.remainder(q, TWO_PI), w, gap, 0.0, kinetic, potential, 0.0, 0.0, total, work, 0.0, 1,
+            min_gap, 0.0, 0.0, hold,
+        )  # fmt: skip
 
     def gap_and_rate(self, x: tuple) -> tuple[float, float]:
         """Signed gap and its rate for the stepper; (inf, 0) when there is no contact law to resolve."""
