@@ -143,8 +143,9 @@ class RigidModel(SteppedModel[tuple]):
     def arc(self, theta: float) -> rigid_contact.Arc:
         """The head's outer boundary (without the rod joint) at angle theta."""
         D = self._depth
-        return rigid_contact.Arc(
-            D * math.sin(theta), -D * math.cos(theta), self._radius, theta + self._arc_offset, self._arc_length
+        return rigid_contact.new_named(
+            rigid_contact.Arc,
+            (D * math.sin(theta), -D * math.cos(theta), self._radius, theta + self._arc_offset, self._arc_length),
         )
 
     def _contact(self, q: float) -> tuple:
