@@ -44,6 +44,7 @@ if TYPE_CHECKING:
 
 NEWTON_MAX_IT = 80
 ENERGY_ROUNDOFF = 1e-15  # relative energy imbalance per step accepted as converged
+NEWTON_MARGIN = 10.0  # how much larger than quadratic convergence predicts the next Newton update is taken
 SMALL_STEP = 1e-9  # |q1 - q0| (rad) below which the contact difference quotient is replaced by a derivative
 APPROACH_SPEED_FLOOR = 1e-3  # m/s: a head at rest near the block is assumed to approach at least this fast
 NEAR_FRACTION = 1.0  # contact scales are reported while the gap is below this many head radii
@@ -64,6 +65,15 @@ def _gravity_quotient(mgd: float, q0: float, u: float) -> tuple[float, float]:
         sinc, dsinc = 1.0 - h2 / 6.0 + h2 * h2 / 120.0, h * (-1.0 / 3.0 + h2 / 30.0)
     s_m, c_m = math.sin(q0 + h), math.cos(q0 + h)
     return mgd * s_m * sinc, 0.5 * mgd * (c_m * sinc + s_m * dsinc)
+
+
+def _next_update(du: float, last: float) -> float:
+    """The Newton update after du as quadratic convergence predicts it from du and the update before,
+    `last` (K = du / last^2, the next K du^2), NEWTON_MARGIN times over; inf when du did not contract."""
+    if not last > du:
+        return math.inf
+    ratio = du / last
+    return NEWTON_MARGIN * du * ratio * ratio
 
 
 def _converged(du: float, size: float, c: float, scale: float) -> bool:
@@ -218,11 +228,26 @@ class RigidModel(SteppedModel[tuple]):
         q0, q1 = x0[0], x1[0]
         qc, _ = self._contact_quotient(q0, q1 - q0, self.contact_energy(q0).energy)
         for q in (0.5 * (q0 + q1), q1, q0):
-            pen = self.contact_energy(q)
-            if pen.d_energy != 0.0:
-                scale = dt * (qc / pen.d_energy)
-                return np.array((scale * pen.fx, scale * pen.fy))
+            fx, fy, moment = self._force_line(q)
+            if moment != 0.0:
+                scale = dt * (qc / moment)
+                return np.array((scale * fx, scale * fy))
         return np.zeros(2)
+
+    def _force_line(self, q: float) -> tuple[float, float, float]:
+        """The contact force at angle q up to a positive factor: (fx, fy, dE/dtheta), all 0 out of contact.
+        For the head on one face (a whole segment) that is (-g, g . J centre) (rigid_contact._segment_penalty),
+        which needs the pieces but not the energy's series: the impulse's midpoint asks it at a new angle."""
+        hit = self._memo.get(q)
+        if hit is None:
+            arc = self.arc(q)
+            pieces = rigid_contact.inside_pieces(arc, self.block)
+            if len(pieces) == 1 and pieces[0].whole:
+                _, gx, gy = rigid_contact.face_depths(self.block)[pieces[0].face]
+                return -gx, -gy, gy * arc.cx - gx * arc.cy
+            hit = self._contact(q)
+        pen = hit[1]
+        return pen.fx, pen.fy, pen.d_energy
 
     def _solve(self, q0: float, w0: float, dt: float, torque: float, contact: bool) -> float | None:
         """The increment u = q1 - q0 solving G(u) = 0 (Newton, safeguarded by a bracket); `contact`
@@ -244,6 +269,7 @@ class RigidModel(SteppedModel[tuple]):
         scale = mgd + 0.5 * self.inertia * w0 * w0 + e0 + abs(torque * u)  # energies this step moves
         lo, hi = -math.inf, math.inf
         span = 0.0  # the widening stride, set the first time Newton leaves an open bracket (rarely)
+        last = 0.0  # the Newton update before this one (0: none, or a bisection came between)
         for _ in range(NEWTON_MAX_IT):
             # G(u) = c (u - dt w0) - T + (V(q0 + u) - V(q0)) / u
             quot, dquot = _gravity_quotient(mgd, q0, u)
@@ -261,9 +287,13 @@ class RigidModel(SteppedModel[tuple]):
             else:
                 hi = u
             u_new = u - g / dg if dg > 0.0 else math.nan
-            if lo <= u_new <= hi and _converged(abs(u_new - u), abs(u_new), c, scale):
-                return u_new
+            if lo <= u_new <= hi:
+                du, size = abs(u_new - u), abs(u_new)
+                if _converged(du, size, c, scale) or _converged(_next_update(du, last), size, c, scale):
+                    return u_new
+                last = du
             if not lo < u_new < hi:  # Newton left the bracket (or G' <= 0): bisect or widen
+                last = 0.0
                 if math.isfinite(lo) and math.isfinite(hi):
                     u_new = 0.5 * (lo + hi)
                     if u_new == lo or u_new == hi or _converged(0.5 * (hi - lo), abs(u_new), c, scale):
