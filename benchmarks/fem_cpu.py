@@ -8,7 +8,10 @@ block instead of the rigid one) on the default mesh, advanced in 1 ms communicat
 (outputs computed at every step), timed with time.process_time (CPU time of
 this process, less disturbed than wall time by other jobs on a shared
 machine); prints the best of `repeat` runs, the wall time of that run, the
-load average, the internal steps, and the accuracy figures (theta at the end,
+load average, the internal steps, the solver's counts (Newton iterations,
+Jacobians assembled, refactorisations for a new step size, factorisations
+left to SuperLU: measures of cost that load does not disturb), and the
+accuracy figures (theta at the end,
 the largest energy error over the swing energy) so that a faster run can be
 checked to be the same run. With --profile N it runs once under cProfile and
 prints the N entries with the most internal time (the profile of docs/fem.md),
@@ -45,10 +48,15 @@ def run(t_end: float, preset: str, deformable_wall: bool = False) -> dict[str, f
         e_err = max(e_err, abs(o.total - o.torque_work - e0))
         substeps += o.substeps
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    counts = model.newton.counts
     return {
         "cpu_per_sim_s": cpu / t_end,
         "wall_per_sim_s": wall / t_end,
         "substeps": substeps,
+        "iterations": counts.iterations,
+        "jacobians": counts.jacobians,
+        "rescaled": counts.rescaled,
+        "by_superlu": model.newton.by_superlu,
         "theta_end": o.theta,
         "energy_error_rel": e_err / swing,
     }
@@ -79,7 +87,9 @@ def main() -> None:
     print(
         f"cpu {best['cpu_per_sim_s']:.3f} s/sim s (runs: {cpus}), "
         f"wall {best['wall_per_sim_s']:.3f} s/sim s, load average {load}, {best['substeps']} internal steps, "
-        f"theta(end) {best['theta_end']:.12f} rad, energy error / swing {best['energy_error_rel']:.2e}"
+        f"theta(end) {best['theta_end']:.12f} rad, energy error / swing {best['energy_error_rel']:.2e}; "
+        f"Newton iterations {best['iterations']}, Jacobians {best['jacobians']}, rescaled refactorisations "
+        f"{best['rescaled']}, factorisations by SuperLU {best['by_superlu']}"
     )
     assert np.isfinite(best["theta_end"])
 

@@ -13,6 +13,7 @@ from fem_pendulum_fmu.physics import native
 from fem_pendulum_fmu.physics.models.fem import FemModel
 from fem_pendulum_fmu.physics.models.fem_lu import HeldFactor
 from fem_pendulum_fmu.physics.scene import compliant, stiff
+from fem_pendulum_fmu.physics.sparse import scipy_matrix
 
 # the stress term sums terms of mu ~ 1e11 Pa (steel) to stresses of ~1e5 Pa: the two evaluations differ
 # in the order of those sums, measured 3.7e-10 of the largest residual entry (steel, torque 0.7 N.m)
@@ -55,17 +56,10 @@ def test_split_residual_equals_the_form(kernels: str, preset) -> None:
 
 def test_split_residual_in_contact_equals_the_form(kernels: str) -> None:
     """With head elements in the contact set the rigid-wall term is integrated by NGSolve, on the same set."""
-    model = FemModel(stiff())  # released at 20 degrees, it reaches the wall (theta = 0) at 0.24 s
+    model = FemModel(stiff())
+    _in_contact(model)
     active = model.form.active
     assert active is not None
-    t = 0.0
-    while True:
-        model.load_step(model._state, 1e-3, 0.0)
-        if active.NumSet() > 0:
-            break
-        t += 1e-3
-        model.advance(t, 0.0)
-        assert t < 0.3, "the pendulum never came near the wall"
     full, split = _residuals(model, 0.0)
     assert active.NumSet() > 0
     assert np.max(np.abs(full - split)) <= RESIDUAL_RTOL * np.max(np.abs(full))
@@ -78,8 +72,48 @@ def test_min_det_F_at_the_forms_points_equals_the_outputs() -> None:
     assert model.min_det_F() == pytest.approx(model.measures.min_det_F(model._state.u), abs=1e-14)
 
 
+def _in_contact(model: FemModel) -> None:
+    """Advance the steel pendulum (released at 20 degrees, at the wall at 0.24 s) to the first step with
+    head elements in the contact set, and load that step."""
+    active = model.form.active
+    assert active is not None
+    t = 0.0
+    while True:
+        model.load_step(model._state, 1e-3, 0.0)
+        if active.NumSet() > 0:
+            return
+        t += 1e-3
+        model.advance(t, 0.0)
+        assert t < 0.3, "the pendulum never came near the wall"
+
+
+@pytest.mark.parametrize("case", ["steel", "rubber", "steel in contact"])
+def test_compiled_jacobian_equals_the_forms_linearisation(case: str) -> None:
+    """The Newton Jacobian from the kernel's stress tangent, the linear terms' matrices and the contact
+    term's own linearisation (fem_residual.SplitJacobian) against NGSolve's linearisation of the full form,
+    at a perturbed iterate with a torque: equal to 5e-16 of the largest entry (measured), so to 1e-12."""
+    if native.kernels() is None:
+        pytest.fail("no C compiler: the compiled kernel cannot be tested on this machine")
+    model = FemModel(compliant() if case == "rubber" else stiff())
+    if case == "steel in contact":
+        _in_contact(model)
+    else:
+        for k in range(3):
+            model.advance((k + 1) * 1e-3, 0.0)
+    _residuals(model, 0.0 if case == "steel in contact" else 0.7)  # loads the step, sets the iterate
+    nw = model.newton
+    assert nw._jacobian is not None
+    mine = nw._jacobian(nw.w.vec)
+    model.form.form.AssembleLinearization(nw.w.vec)
+    free = nw._factor.free
+    full = scipy_matrix(model.form.form.mat)[free][:, free].tocsc()
+    full.sort_indices()
+    assert np.max(np.abs(full.data - mine)) <= 1e-12 * np.max(np.abs(full.data))
+
+
 def test_held_factor_solves_and_rescales(kernels: str) -> None:
-    """The LU solve equals scipy's, and the rescaled inertia term equals a matrix assembled at that step."""
+    """The LU solve equals scipy's, and the rescaled inertia term equals a matrix assembled at that step;
+    with the kernel the factors are its own (multipliers last) and SuperLU's where a pivot vanishes."""
     model = FemModel(stiff())
     model.advance(1e-3, 0.0)
     nw, split = model.newton, model.form.split
@@ -93,18 +127,23 @@ def test_held_factor_solves_and_rescales(kernels: str) -> None:
         return sp.csc_matrix((np.array(vals), (np.array(rows), np.array(cols))))
 
     b = np.cos(np.arange(model.space.X.ndof))
-    factor = HeldFactor(free, split.linear.mass)
-    a1 = assembled(1e-3)
-    factor.factorise(model.form.form.mat)
-    x = np.zeros_like(b)
-    factor.solve(b, x)
-    reference = spl.spsolve(a1, b)
-    assert np.max(np.abs(x - reference)) <= 1e-9 * np.max(np.abs(reference))
-    coeff = split.linear.inertia_coefficient
-    assert factor.factorise_shifted(coeff(0.4e-3) - coeff(1e-3))
-    factor.solve(b, x)
-    reference = spl.spsolve(assembled(0.4e-3), b)
-    assert np.max(np.abs(x - reference)) <= 1e-9 * np.max(np.abs(reference))
+    multipliers = np.arange(model.space.X.ndof) >= model.space.nV
+    # ordered last, the multipliers get their pivots; ordered with the rest (no `last`), their zero diagonal
+    # comes first in the minimum-degree order, is refused by the kernel and SuperLU pivots instead
+    for last in (multipliers, np.zeros_like(multipliers)):
+        factor = HeldFactor(free, split.linear.mass, last)
+        a1 = assembled(1e-3)
+        factor.factorise(model.form.form.mat)
+        x = np.zeros_like(b)
+        factor.solve(b, x)
+        reference = spl.spsolve(a1, b)
+        assert np.max(np.abs(x - reference)) <= 1e-9 * np.max(np.abs(reference))
+        assert (factor._lu is None) == (kernels == "compiled" and last is multipliers)
+        coeff = split.linear.inertia_coefficient
+        assert factor.factorise_shifted(coeff(0.4e-3) - coeff(1e-3))
+        factor.solve(b, x)
+        reference = spl.spsolve(assembled(0.4e-3), b)
+        assert np.max(np.abs(x - reference)) <= 1e-9 * np.max(np.abs(reference))
 
 
 def test_compiled_and_numpy_runs_agree(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -172,3 +172,131 @@ double femp_strain_energy(int q, const int *indptr, const int *indices, const do
     }
     return total;
 }
+
+/* Equilibrate and factorise a matrix without pivoting on a fill structure computed beforehand
+ * (models/fem_lu.py, `Symbolic`): A (n x n, CSC, rows sorted) scaled to S A S, S = diag(scale) with
+ * scale[c] = 1 / sqrt(max |A[:, c]|), then permuted, B[pos[r], pos[c]] = (S A S)[r, c], and B = L U with L
+ * unit lower (strict part, CSC, Lp/Li) and U upper (strict part CSC, Up/Ui, rows increasing; diagonal
+ * u_diag), the pattern of L + U that of B's symbolic factorisation. Left-looking, one column at a time in
+ * the dense scratch x (n entries, all zero on entry and on return). Returns 0, or j + 1 when column j's
+ * pivot is under pivot_min times the largest entry below it (or not finite): SuperLU then pivots instead. */
+double femp_lu_factor(int n, const int *Ap, const int *Ai, const double *Ax, const int *pos, const int *order,
+                   const int *Lp, const int *Li, double *Lx, const int *Up, const int *Ui, double *Ux,
+                   double *u_diag, double *scale, double pivot_min, double *x) {
+    for (int c = 0; c < n; ++c) {
+        double largest = 0.0;
+        for (int k = Ap[c]; k < Ap[c + 1]; ++k)
+            if (fabs(Ax[k]) > largest) largest = fabs(Ax[k]);
+        scale[c] = 1.0 / sqrt(largest > 0.0 ? largest : 1.0);
+    }
+    for (int j = 0; j < n; ++j) {
+        int c = order[j];
+        for (int k = Ap[c]; k < Ap[c + 1]; ++k) x[pos[Ai[k]]] = Ax[k] * scale[Ai[k]] * scale[c];
+        for (int t = Up[j]; t < Up[j + 1]; ++t) {
+            int k = Ui[t];
+            double ukj = x[k];
+            Ux[t] = ukj;
+            x[k] = 0.0;
+            for (int s = Lp[k]; s < Lp[k + 1]; ++s) x[Li[s]] -= Lx[s] * ukj;
+        }
+        double pivot = x[j], below = 0.0;
+        x[j] = 0.0;
+        for (int s = Lp[j]; s < Lp[j + 1]; ++s)
+            if (fabs(x[Li[s]]) > below) below = fabs(x[Li[s]]);
+        if (!(fabs(pivot) >= pivot_min * below) || pivot == 0.0 || !isfinite(pivot) || !isfinite(below)) {
+            for (int i = 0; i < n; ++i) x[i] = 0.0;
+            return (double)(j + 1);
+        }
+        u_diag[j] = pivot;
+        for (int s = Lp[j]; s < Lp[j + 1]; ++s) {
+            Lx[s] = x[Li[s]] / pivot;
+            x[Li[s]] = 0.0;
+        }
+    }
+    return 0.0;
+}
+
+/* The stress term's Jacobian in the end displacement u, the derivative of femp_stress_residual's sum, added
+ * into the entries of a sparse matrix: at point p the local unknowns are its row's basis functions' x
+ * components, then their y components (2 m of them, m the row's length, at most 32, the d/dy row holding
+ * the same columns in the same order), and the entry of local pair (i, j) is out[slots[start[p] + 2 m i + j]].
+ * Consecutive points with the same start (an element's) are summed in a local block first, which is then
+ * added to out once.
+ * dP/dF1 = 1/2 dF1 S + F_mid dS, dS = sum_g w_g s_g DS(C_g)[dC1], DS(C)[E] = lam/2 tr(C^-1 E) C^-1
+ * - (lam/2 ln det C - mu) C^-1 E C^-1 and dC1 = dF1^T F1 + F1^T dF1. */
+void femp_stress_tangent(int q, const int *indptr, const int *indices, const double *data, int nS, const double *u,
+                         const double *F0, const double *C0, const double *weights, double lam, double mu,
+                         int n_gauss, const double *gauss_s, const double *gauss_w, const int *start,
+                         const int *slots, double *out) {
+    double block[64 * 64];
+    for (int p = 0; p < q; ++p) {
+        double g[4];
+        gradients_at(p, q, indptr, indices, data, nS, u, g);
+        double f[2][2] = {{1.0 + g[0], g[1]}, {g[2], 1.0 + g[3]}};
+        double c1[3] = {f[0][0] * f[0][0] + f[1][0] * f[1][0], f[0][0] * f[0][1] + f[1][0] * f[1][1],
+                        f[0][1] * f[0][1] + f[1][1] * f[1][1]};
+        const double *c0 = C0 + 3 * p;
+        const double *f0 = F0 + 4 * p;
+        double fm[2][2] = {{0.5 * (f0[0] + f[0][0]), 0.5 * (f0[1] + f[0][1])},
+                           {0.5 * (f0[2] + f[1][0]), 0.5 * (f0[3] + f[1][1])}};
+        /* the averaged S and, for each (k, L) of dF1, dS: ds[k][L][M][J] */
+        double s_avg[2][2] = {{mu, 0.0}, {0.0, mu}};
+        double ds[2][2][2][2] = {{{{0.0}}}};
+        for (int i = 0; i < n_gauss; ++i) {
+            double s = gauss_s[i], wg = gauss_w[i];
+            double c00 = c0[0] + s * (c1[0] - c0[0]);
+            double c01 = c0[1] + s * (c1[1] - c0[1]);
+            double c11 = c0[2] + s * (c1[2] - c0[2]);
+            double det = c00 * c11 - c01 * c01;
+            double beta = lam * 0.5 * log(det) - mu;
+            double ci[2][2] = {{c11 / det, -c01 / det}, {-c01 / det, c00 / det}};
+            for (int a = 0; a < 2; ++a)
+                for (int b = 0; b < 2; ++b) s_avg[a][b] += wg * beta * ci[a][b];
+            for (int k = 0; k < 2; ++k)
+                for (int l = 0; l < 2; ++l) {
+                    /* E = dC1 for dF1 = e_k e_l^T: E[M][N] = d(N,l) F1[k][M] + d(M,l) F1[k][N] */
+                    double e[2][2];
+                    for (int m = 0; m < 2; ++m)
+                        for (int n = 0; n < 2; ++n) e[m][n] = (n == l ? f[k][m] : 0.0) + (m == l ? f[k][n] : 0.0);
+                    double tr = ci[0][0] * e[0][0] + ci[0][1] * e[1][0] + ci[1][0] * e[0][1] + ci[1][1] * e[1][1];
+                    double cie[2][2], ciec[2][2];
+                    for (int m = 0; m < 2; ++m)
+                        for (int n = 0; n < 2; ++n) cie[m][n] = ci[m][0] * e[0][n] + ci[m][1] * e[1][n];
+                    for (int m = 0; m < 2; ++m)
+                        for (int n = 0; n < 2; ++n) ciec[m][n] = cie[m][0] * ci[0][n] + cie[m][1] * ci[1][n];
+                    for (int m = 0; m < 2; ++m)
+                        for (int n = 0; n < 2; ++n)
+                            ds[k][l][m][n] += wg * s * (0.5 * lam * tr * ci[m][n] - beta * ciec[m][n]);
+                }
+        }
+        /* a[i][J][k][L] = w dP_iJ / dF1_kL */
+        double w = weights[p], a[2][2][2][2];
+        for (int i = 0; i < 2; ++i)
+            for (int J = 0; J < 2; ++J)
+                for (int k = 0; k < 2; ++k)
+                    for (int L = 0; L < 2; ++L) {
+                        double v = (i == k ? 0.5 * s_avg[L][J] : 0.0);
+                        v += fm[i][0] * ds[k][L][0][J] + fm[i][1] * ds[k][L][1][J];
+                        a[i][J][k][L] = w * v;
+                    }
+        int m = indptr[p + 1] - indptr[p];
+        const double *gx = data + indptr[p], *gy = data + indptr[q + p];
+        if (p == 0 || start[p] != start[p - 1])
+            for (int t = 0; t < 4 * m * m; ++t) block[t] = 0.0;
+        for (int ia = 0; ia < 2 * m; ++ia) {
+            int i = ia / m, ai = ia % m;
+            /* b[k][L] = sum_J g_aJ a[i][J][k][L] */
+            double b[2][2];
+            for (int k = 0; k < 2; ++k)
+                for (int L = 0; L < 2; ++L) b[k][L] = gx[ai] * a[i][0][k][L] + gy[ai] * a[i][1][k][L];
+            for (int jb = 0; jb < 2 * m; ++jb) {
+                int k = jb / m, bj = jb % m;
+                block[2 * m * ia + jb] += b[k][0] * gx[bj] + b[k][1] * gy[bj];
+            }
+        }
+        if (p == q - 1 || start[p + 1] != start[p]) {
+            const int *slot = slots + start[p];
+            for (int t = 0; t < 4 * m * m; ++t) out[slot[t]] += block[t];
+        }
+    }
+}

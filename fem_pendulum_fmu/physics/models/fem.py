@@ -69,9 +69,10 @@ class FemModel:
         turn = Turn(self.space, self.measures.rotation_angle)
         residual = split or self.form.form.Apply
         inertia = None if split is None else (split.linear.mass, split.linear.inertia_coefficient)
-        self.newton = HeldJacobianNewton(
-            self.form.form, residual, self.space, self._load, self.head.active_elements, turn, self._guess, inertia
-        )
+        # the compiled Jacobian where the contact is the rigid wall's (or none); the meshed wall's is NGSolve's
+        tangent = None if split is None or self.form.wall_residual is not None else split.jacobian
+        args = (self._load, self.head.active_elements, turn, self._guess, inertia, tangent)
+        self.newton = HeldJacobianNewton(self.form.form, residual, self.space, *args)
         self.time = 0.0
         self._state = self.scheme.start(self, self._initial_state())
         self._outputs = self.measures.of(self._state, 0.0, 0)

@@ -6,10 +6,20 @@ UMFPACK inverse's Mult on the 302 unknowns of the steel scene's mesh: that
 Mult, not the arithmetic, was the larger half of a Newton iteration once the
 residual was compiled (docs/fem.md, "Profile and speed-up"). Without the
 kernel, SuperLU's own solve.
+
+With the kernel, a matrix is factorised without pivoting on a fill-reducing
+order and structure computed once per sparsity pattern (`Symbolic`), in one
+compiled call: a rubber run refactorises about 1300 times in 2 s, and
+SuperLU took 1.5 ms a time plus 0.8 ms of Python around it (equilibration,
+copying its factors out), the kernel 0.3 ms (docs/fem.md, "Jacobians and
+factors in the kernel"). Where a pivot nearly vanishes (PIVOT_MIN) the matrix goes
+to SuperLU instead; either way the factors are a function of the matrix
+alone, so a restored model refactorises bit-identically.
 """
 
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass
 
 import ngsolve as ngs
@@ -19,6 +29,12 @@ import scipy.sparse.linalg as spl
 
 from .. import native
 from ..sparse import scipy_matrix
+
+# The kernel's factors (`Symbolic`) refuse a pivot under this share of the largest entry below it, a guard
+# against breakdown only: the matrices are nearly symmetric positive definite but for the multipliers, ordered
+# last, and where the rubber's later impacts gave pivots of 1e-4 to 0.1 of their column the kernel's solves
+# were as accurate as SuperLU's (75 such matrices: residuals up to 6.5e-11 of b against SuperLU's 1.1e-10)
+PIVOT_MIN = 1e-6
 
 
 def _splu(matrix: sp.csc_matrix) -> spl.SuperLU:
@@ -59,11 +75,94 @@ def _int32(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.int32)
 
 
+def _fill_columns(lower: sp.csc_matrix) -> list[np.ndarray]:
+    """The rows below the diagonal of each column of L for a matrix of symmetric pattern factorised without
+    pivoting (its strictly lower part given): a column's own rows and those of its children in the
+    elimination tree, less itself."""
+    n = lower.shape[0]
+    children: list[list[int]] = [[] for _ in range(n)]
+    columns: list[np.ndarray] = []
+    for j in range(n):
+        rows = set(lower.indices[lower.indptr[j] : lower.indptr[j + 1]].tolist())
+        for c in children[j]:
+            rows.update(columns[c].tolist())
+        rows.discard(j)
+        column = np.array(sorted(rows), dtype=np.int32)
+        columns.append(column)
+        if len(column):
+            children[int(column[0])].append(j)
+    return columns
+
+
+@dataclass
+class Symbolic:
+    """A pattern's fill-reducing order and the structure of its factors without pivoting, with the arrays
+    the kernel writes the factors into (femp_lu_factor, native.py)."""
+
+    Ap: np.ndarray  # the pattern's CSC arrays as int32
+    Ai: np.ndarray
+    pos: np.ndarray  # the factored position of each free unknown
+    order: np.ndarray  # the free unknown at each position
+    Lp: np.ndarray  # L's strict lower part, CSC
+    Li: np.ndarray
+    Up: np.ndarray  # U's strict upper part, CSC, rows increasing
+    Ui: np.ndarray
+    Lx: np.ndarray
+    Ux: np.ndarray
+    u_diag: np.ndarray
+    scale: np.ndarray
+    work: np.ndarray  # the kernel's dense column, all zero between calls
+
+    @staticmethod
+    def of(pattern: Pattern, last: np.ndarray) -> Symbolic:
+        """The minimum-degree order of A + A^T (SuperLU's, on the pattern with a dominant diagonal) over the
+        unknowns not in `last`, then those in `last` (the hinge multipliers: their zero diagonal gets its
+        pivot only once the displacements they tie are eliminated)."""
+        n = len(pattern.indptr) - 1
+        ones = sp.csc_matrix((np.ones(len(pattern.indices)), pattern.indices, pattern.indptr), (n, n))
+        both = (ones + ones.T).tocsc()
+        lead = np.flatnonzero(~last)
+        block = (both[lead][:, lead] + len(lead) * sp.identity(len(lead))).tocsc()
+        perm_c = _splu(block).perm_c
+        order = np.concatenate([lead[np.argsort(perm_c)], np.flatnonzero(last)]).astype(np.int32)
+        pos = np.empty(n, dtype=np.int32)
+        pos[order] = np.arange(n, dtype=np.int32)
+        lower = sp.tril(both[order][:, order], k=-1).tocsc()
+        columns = _fill_columns(lower)
+        Lp = np.concatenate([[0], np.cumsum([len(c) for c in columns])]).astype(np.int32)
+        Li = np.concatenate(columns).astype(np.int32)
+        L = sp.csc_matrix((np.ones(len(Li)), Li, Lp), (n, n))
+        U = L.T.tocsc()
+        U.sort_indices()
+        Up, Ui = _int32(U.indptr), _int32(U.indices)
+        Ap, Ai, zeros = _int32(pattern.indptr), _int32(pattern.indices), np.zeros
+        values = (zeros(len(Li)), zeros(len(Ui)), zeros(n), zeros(n), zeros(n))
+        return Symbolic(Ap, Ai, pos, order, Lp, Li, Up, Ui, *values)
+
+    def factorise(self, lib: ctypes.CDLL, entries: np.ndarray) -> bool:
+        """Factorise the matrix with these entries on its pattern into the arrays here; False where a pivot
+        is refused (the arrays are then not factors)."""
+        arrays = [self.Ap, self.Ai, entries, self.pos, self.order, self.Lp, self.Li, self.Lx]
+        arrays += [self.Up, self.Ui, self.Ux, self.u_diag, self.scale]
+        at = [a.ctypes.data for a in arrays]
+        return lib.femp_lu_factor(len(self.pos), *at, PIVOT_MIN, self.work.ctypes.data) == 0.0
+
+    def kernel_args(self, free: np.ndarray) -> tuple:
+        """femp_lu_solve's LU arguments for these factors (positions as both row and column permutation)."""
+        arrays = (self.scale, self.pos, self.pos, self.Lp, self.Li, self.Lx, self.Up, self.Ui, self.Ux, self.u_diag)
+        return (len(free), free.ctypes.data, *(a.ctypes.data for a in arrays))
+
+
 class HeldFactor:
     """LU factors of a matrix's free block; solve(b, x) sets x = A^-1 b on the free unknowns."""
 
-    def __init__(self, free: np.ndarray, mass: sp.csr_matrix | None = None):
+    def __init__(self, free: np.ndarray, mass: sp.csr_matrix | None = None, last: np.ndarray | None = None):
+        """free, last: masks over all unknowns; last (the hinge multipliers) are ordered last, and without
+        it every factorisation is SuperLU's."""
         self.free = _int32(np.flatnonzero(free))
+        self._last = None if last is None else np.asarray(last, dtype=bool)[self.free]
+        self._symbolic: Symbolic | None = None  # of the last pattern, for the kernel's factorisation
+        self.by_superlu = 0  # factorisations SuperLU made (all of them without the kernel)
         # the inertia term's matrix on the free block, for factorise_shifted
         self._mass = None if mass is None else mass[self.free][:, self.free].tocsc()
         self._pattern: Pattern | None = None  # of the last assembled matrix
@@ -78,13 +177,29 @@ class HeldFactor:
 
     def factorise(self, mat: ngs.BaseMatrix) -> None:
         """Factorise the free block of an assembled ngsolve matrix."""
+        self.factorise_entries(self._adopt(mat))
+
+    def pattern_of(self, mat: ngs.BaseMatrix) -> Pattern:
+        """The pattern of an assembled ngsolve matrix's free block, adopted for factorise_entries."""
+        self._adopt(mat)
+        assert self._pattern is not None
+        return self._pattern
+
+    def factorise_entries(self, entries: np.ndarray) -> None:
+        """Factorise the matrix with these entries on the adopted pattern (float64, contiguous)."""
+        self._assembled = entries
+        self._use(entries)
+
+    def _adopt(self, mat: ngs.BaseMatrix) -> np.ndarray:
+        """The free block's entries of an assembled matrix; its pattern, if new, adopted with what depends on it."""
         assembled = scipy_matrix(mat)[self.free][:, self.free].tocsc()
         assembled.sort_indices()
         if self._pattern is None or not self._same_pattern(assembled):
             self._pattern = pattern = Pattern.of(assembled)
             self._mass_entries = None if self._mass is None else self._on_pattern(self._mass, pattern)
-        self._assembled = assembled.data
-        self._use(self._assembled)
+            if self._lib is not None and self._last is not None:
+                self._symbolic = Symbolic.of(pattern, self._last)
+        return assembled.data
 
     def _same_pattern(self, matrix: sp.csc_matrix) -> bool:
         p = self._pattern
@@ -115,6 +230,13 @@ class HeldFactor:
 
     def _use(self, entries: np.ndarray) -> None:
         assert self._pattern is not None
+        symbolic = self._symbolic
+        if self._lib is not None and symbolic is not None and symbolic.factorise(self._lib, entries):
+            self._lu = None
+            self.kernel_args = symbolic.kernel_args(self.free)
+            self.work_at = self._work.ctypes.data
+            return
+        self.by_superlu += 1
         scaled, self._scale = self._pattern.equilibrated(entries)
         lu = _splu(scaled)
         self._lu = lu

@@ -39,7 +39,10 @@ from .fem_space import FemSpace, FemState
 # a re-assembly and factorisation about 8 ms: the held Jacobian is kept while the corrections shrink by at
 # least 1 / SLOWEST_CONTRACTION and would converge within NEWTON_MAX_IT iterations. Rubber, 2 s (four
 # impacts): 2x and 20 iterations took 701 re-assemblies from u0 + dt v0 and 349 (28369 iterations) from
-# FemModel._guess; 1.4x and 30 take 190 (33687 iterations): 6 % less time (docs/fem.md).
+# FemModel._guess; 1.4x and 30 take 190 (33687 iterations): 6 % less time (docs/fem.md). With the Jacobian
+# and its factors compiled (fem_residual.SplitJacobian, fem_lu.Symbolic) a new one costs about 1.5 ms, nine
+# iterations; refreshing it too when the rate predicted more than 12 or 15 iterations saved 12 % of them for
+# twice the Jacobians, no faster (docs/fem.md, "Jacobians and factors in the kernel").
 NEWTON_MAX_IT = 30
 SLOWEST_CONTRACTION = 0.7
 # Converged when the error left (converged()) is under this share of the step's displacement (largest
@@ -51,6 +54,15 @@ NEWTON_RTOL = 1e-10
 # 1/dt^2); closer, the contraction test decides. In contact the steps change by a few per mille each: on the
 # steel scene's impact this took 13 re-assemblies where an exact match took 40, for 2 % more residuals.
 HELD_DT_CHANGE = 0.02
+
+
+@dataclass
+class NewtonCounts:
+    """What the solver did, for benchmarks/fem_cpu.py (load-independent measures of its cost)."""
+
+    iterations: int = 0  # residuals and corrections
+    jacobians: int = 0  # Jacobians assembled and factorised
+    rescaled: int = 0  # refactorisations with the inertia term rescaled to a new step size
 
 
 @dataclass
@@ -76,6 +88,9 @@ class JacobianPoint:
 Inertia = tuple[sp.csr_matrix, Callable[[float], float]]
 # guess(start state, dt): Newton's start iterate of u1
 Guess = Callable[[FemState, float], np.ndarray]
+# tangent(free unknowns, pattern's CSC indptr, indices) -> jacobian(w): the step form's Jacobian at w as the
+# entries on that pattern (fem_residual.SplitJacobian); None: NGSolve assembles the form's linearisation
+Tangent = Callable[[np.ndarray, np.ndarray, np.ndarray], Callable[[ngs.BaseVector], np.ndarray]]
 # load(u0, v0, dt, torque, active head elements or None): set the step form's inputs
 # residual(w, res): the step form's residual at w into res (ngsolve vectors)
 Residual = Callable[[ngs.BaseVector, ngs.BaseVector], None]
@@ -144,6 +159,7 @@ class HeldJacobianNewton:
         turn: Turn,
         guess: Guess,
         inertia: Inertia | None = None,
+        tangent: Tangent | None = None,
     ):
         self.form = form  # the ngsolve BilinearForm of the step: its linearisation is the Jacobian
         self._apply = residual
@@ -161,10 +177,18 @@ class HeldJacobianNewton:
         self._lib = native.kernels()
         self._at = tuple(a.ctypes.data for a in (self._res_np, self._turned_np, self._corr_np, self._w_np))
         self._load, self._active_now, self._guess = load, active_now, guess
-        self._factor = HeldFactor(np.array(space.X.FreeDofs(), dtype=bool), None if inertia is None else inertia[0])
+        free, multipliers = np.array(space.X.FreeDofs(), dtype=bool), np.arange(space.X.ndof) >= space.nV
+        self._factor = HeldFactor(free, None if inertia is None else inertia[0], multipliers)
         self._inertia_coeff = None if inertia is None else inertia[1]
+        self._jacobian = None if tangent is None or self._lib is None else self._compiled_jacobian(tangent)
+        self.counts = NewtonCounts()
         self.held: JacobianPoint | None = None
         self.ready = False  # the held Jacobian is assembled and factorised (False after a restore)
+
+    @property
+    def by_superlu(self) -> int:
+        """Factorisations left to SuperLU (a pivot the kernel refused, or no kernel)."""
+        return self._factor.by_superlu
 
     def multipliers(self) -> np.ndarray:
         """The hinge multipliers of the last solve."""
@@ -200,6 +224,7 @@ class HeldJacobianNewton:
                 turn = 0.0
             self._apply(self.w.vec, res)
             size = self._update(turn)
+            self.counts.iterations += 1
             if size < 0.0:
                 return None  # not finite
             if converged(size, last, tol):
@@ -238,8 +263,19 @@ class HeldJacobianNewton:
         self._turn.apply(self._corr_np, turn)
         return self._corr_np
 
+    def _compiled_jacobian(self, tangent: Tangent) -> Callable[[ngs.BaseVector], np.ndarray]:
+        """The Jacobian on the full form's pattern, learnt from one assembly here (its entries unused): every
+        Jacobian then comes from `tangent`, so that a restored model rebuilds the same one."""
+        self.form.AssembleLinearization(self.w.vec)
+        pattern = self._factor.pattern_of(self.form.mat)
+        return tangent(self._factor.free, pattern.indptr, pattern.indices)
+
     def _factorise(self) -> None:
         """Assemble the Jacobian at the current inputs and w, and factorise it."""
+        self.counts.jacobians += 1
+        if self._jacobian is not None:
+            self._factor.factorise_entries(self._jacobian(self.w.vec))
+            return
         self.form.AssembleLinearization(self.w.vec)
         self._factor.factorise(self.form.mat)
 
@@ -250,6 +286,7 @@ class HeldJacobianNewton:
             return False
         if not self._factor.factorise_shifted(self._inertia_coeff(dt) - self._inertia_coeff(self.held.dt)):
             return False
+        self.counts.rescaled += 1
         # a new point, not a changed one: a failed advance puts back the one from before (FemModel.advance)
         self.held = replace(self.held, dt_factorised=dt)
         return True
