@@ -136,6 +136,7 @@ class RigidModel(SteppedModel[tuple]):
         self.control = StepControl.for_scene(scene)
         self._memo: dict[float, tuple] = {}  # pure functions of the angle, so caching keeps runs deterministic
         self._gap_memo: dict[float, tuple[float, float]] = {}
+        self._free_gain = (math.nan, math.inf)  # (c, _free_newton_gain) of the last free-flight step size
         self._sampler: VertexSampler | None = None  # the mesh's vertices, for fields()
         self.time = 0.0
         self._x = self.state(scene.theta0, scene.omega0)
@@ -320,8 +321,15 @@ class RigidModel(SteppedModel[tuple]):
         u_new = u - g / dg
         du, size = abs(u_new - u), abs(u_new)
         scale = mgd + 0.5 * inertia * w0 * w0 + abs(torque * u)
-        bound = _free_newton_gain(c, abs(mgd)) * du * du  # the next update's: accept if either passes
-        return u_new if _converged(du if du < bound else bound, size, c, scale) else None
+        gain_c, gain = self._free_gain
+        if gain_c != c:  # a new step size (free flight keeps one): the bound's factor again
+            gain = _free_newton_gain(c, abs(mgd))
+            self._free_gain = (c, gain)
+        bound = gain * du * du  # the next update's: accept if either passes
+        if bound < du:
+            du = bound
+        # _converged, inlined: this is every free-flight step's test
+        return u_new if du <= 1e-15 * size + 1e-20 or c * du * size <= ENERGY_ROUNDOFF * scale else None
 
     # ------------------------------------------------------------- advance
     def advance(self, t_end: float, torque: float) -> Outputs:
