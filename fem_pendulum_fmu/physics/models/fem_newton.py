@@ -41,7 +41,7 @@ from .fem_space import FemSpace, FemState
 # impacts): 2x and 20 iterations took 701 re-assemblies from u0 + dt v0 and 349 (28369 iterations) from
 # FemModel._guess; 1.4x and 30 take 190 (33687 iterations): 6 % less time (docs/fem.md). With the Jacobian
 # and its factors compiled (fem_residual.SplitJacobian, fem_lu.Symbolic) a new one costs about 1.5 ms, nine
-# iterations; refreshing it too when the rate predicted more than 12 or 15 iterations saved 12 % of them for
+# iterations; refreshing it too when the rate predicted more than 12 or 15 iterations saved 13 % of them for
 # twice the Jacobians, no faster (docs/fem.md, "Jacobians and factors in the kernel").
 NEWTON_MAX_IT = 30
 SLOWEST_CONTRACTION = 0.7
