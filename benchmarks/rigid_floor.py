@@ -19,12 +19,12 @@ alike), their ratios, and the load average before and after.
 
     python benchmarks/rigid_floor.py --instructions [--fmu ...] [--stop-time 2]
 
-counts instead what the load cannot change: each FMU runs the same loop under
-valgrind's callgrind, for --stop-time and for one step; printed per doStep are
-the instructions inside the FMU's fmi2DoStep, fmi2SetReal and fmi2GetReal
-(inclusive, the *_core.so entries: pythonfmu and the slave's Python) and those
-of the whole loop (the two runs' difference, fmpy's side included), with the
-whole loop's ratio.
+counts instead what the load cannot change: each FMU runs the same calls once
+under valgrind's callgrind, collected in the stepping loop only (run inside
+functools.reduce, callgrind's --toggle-collect); printed per doStep are the
+instructions of the whole loop (fmpy's side included) and of those inside the
+FMU's fmi2DoStep, fmi2SetReal and fmi2GetReal (inclusive, the *_core.so
+entries: pythonfmu and the slave's Python), with the whole loop's ratio.
 """
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ class {name}(Fmi2Slave):
 '''
 
 DRIVER = """
-import json, sys, time
+import functools, json, sys, time
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 fmu, identifier, stop, step = sys.argv[1], sys.argv[2], float(sys.argv[3]), float(sys.argv[4])
@@ -108,8 +108,13 @@ n = round(stop / step)
 torque = [vr["torque"]]
 t = 0.0
 c0, w0, h0 = time.process_time(), time.perf_counter(), time.thread_time()
-for k in range(n):
-    s.setReal(torque, [0.0]); s.doStep(t, step); t = (k + 1) * step; values = s.getReal(outs)
+if sys.argv[6:] == ["count"]:  # the same calls inside functools.reduce, which callgrind collects alone
+    def one(_, k):
+        s.setReal(torque, [0.0]); s.doStep(k * step, step); return s.getReal(outs)
+    values = functools.reduce(one, range(n), None)
+else:
+    for k in range(n):
+        s.setReal(torque, [0.0]); s.doStep(t, step); t = (k + 1) * step; values = s.getReal(outs)
 cpu, wall, thread = time.process_time() - c0, time.perf_counter() - w0, time.thread_time() - h0
 s.terminate(); s.freeInstance()
 theta = values[outs.index(vr["theta"])]
@@ -157,16 +162,16 @@ ANNOTATED = re.compile(r"\s*([\d,]+) .*:(fmi2\w+) \[.*_core\.so\]")
 
 
 def count_instructions(fmu: Path, identifier: str, stop: float, step: float, integers: dict[str, int]) -> dict:
-    """One run under callgrind: the instructions inside each of CALLS summed over the run (inclusive),
-    and the process's total ("process")."""
+    """One run under callgrind, collecting in the stepping loop only (the driver's "count" mode): its
+    instructions ("loop") and those inside each of CALLS (inclusive)."""
     with tempfile.TemporaryDirectory(prefix="rigid_floor_cg_") as tmp:
         out = Path(tmp) / "callgrind.out"
-        args = [str(fmu), identifier, repr(stop), repr(step), json.dumps(integers)]
+        args = [str(fmu), identifier, repr(stop), repr(step), json.dumps(integers), "count"]
+        valgrind = ["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=functools_reduce"]
         subprocess.run(
-            ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", sys.executable, "-c", DRIVER, *args],
+            [*valgrind, f"--callgrind-out-file={out}", sys.executable, "-c", DRIVER, *args],
             capture_output=True,
             check=True,
-            env={**os.environ, "PYTHONHASHSEED": "0"},
         )
         text = subprocess.run(
             ["callgrind_annotate", "--inclusive=yes", "--threshold=100", str(out)],
@@ -180,28 +185,25 @@ def count_instructions(fmu: Path, identifier: str, stop: float, step: float, int
         if m and m[2] in counts:
             counts[m[2]] += int(m[1].replace(",", ""))
         elif "PROGRAM TOTALS" in line:
-            counts["process"] = int(line.split()[0].replace(",", ""))
+            counts["loop"] = int(line.split()[0].replace(",", ""))
     return counts
 
 
 def report_instructions(floor: Path, fmu: Path, args: argparse.Namespace, integers: dict[str, int]) -> None:
-    """Print the instructions per doStep of both FMUs (see the module's docstring): inside the FMU's
-    calls, and of the whole loop (the process's total of the run less that of a one-step run, so that
-    start-up cancels and fmpy's side of the calls is counted as in the CPU times)."""
+    """Print the instructions per doStep of both FMUs (see the module's docstring)."""
     n = round(args.stop_time / args.step)
     per_step = {}
     fmus = (("floor", floor, FLOOR_ID, {}), (args.fidelity, fmu, "FemPendulum", integers))
     for name, path, identifier, values in fmus:
-        full = count_instructions(path, identifier, args.stop_time, args.step, values)
-        one = count_instructions(path, identifier, args.step, args.step, values)
-        per_step[name] = {c: (full[c] - one[c]) / (n - 1) for c in (*CALLS, "process")}
-    print(f"instructions per doStep (callgrind; {n} doSteps less 1, inclusive counts inside the FMU's calls)")
+        counts = count_instructions(path, identifier, args.stop_time, args.step, values)
+        per_step[name] = {k: v / n for k, v in counts.items()}
+    print(f"instructions per doStep (callgrind, {n} doSteps; inside the FMU's calls inclusive)")
     print("| FMU | " + " | ".join(CALLS) + " | in the calls | whole loop |")
     print("|---|" + "---|" * (len(CALLS) + 2))
     for k, c in per_step.items():
         calls = " | ".join(f"{c[call]:,.0f}" for call in CALLS)
-        print(f"| {k} | {calls} | {sum(c[call] for call in CALLS):,.0f} | {c['process']:,.0f} |")
-    loop = {k: c["process"] for k, c in per_step.items()}
+        print(f"| {k} | {calls} | {sum(c[call] for call in CALLS):,.0f} | {c['loop']:,.0f} |")
+    loop = {k: c["loop"] for k, c in per_step.items()}
     print(
         f"ratio {args.fidelity} / floor, whole loop: {loop[args.fidelity] / loop['floor']:.3f} "
         f"({loop[args.fidelity] - loop['floor']:,.0f} more per doStep)"

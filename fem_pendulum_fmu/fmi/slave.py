@@ -157,7 +157,7 @@ class PendulumSlave(Fmi2Slave):
         self._handler = _FmiLogHandler(self)
         # value-reference lists already validated, for the per-step calls: get_real of outputs reads
         # them with one attrgetter (None: not all outputs, pythonfmu's loop), set_real skips re-checking
-        self._real_readers: dict[tuple[int, ...], tuple[Callable[[Outputs], Any], bool] | None] = {}
+        self._real_readers: dict[tuple[int, ...], tuple[Callable[[Outputs], Any] | None, bool]] = {}
         self._real_setters: dict[tuple[int, ...], tuple[Callable[[Any], None], ...]] = {}
         for var in self.interface.variables:
             self._register(var)
@@ -251,28 +251,31 @@ class PendulumSlave(Fmi2Slave):
 
     def get_real(self, vrs: list[int]) -> list[float]:
         key = tuple(vrs)
-        if key not in self._real_readers:
+        reader = self._real_readers.get(key)  # one lookup: the key's hash is not cached
+        if reader is None:
             if self._variables(vrs, Real, "fmi2GetReal") is None:
                 return [0.0] * len(vrs)
-            self._remember_reader(key)
-        reader = self._real_readers[key]
-        if reader is None:
-            return super().get_real(vrs)
-        if self.outputs is None:
-            return [0.0] * len(vrs)
+            reader = self._remember_reader(key)
         read, single = reader
-        return [float(read(self.outputs))] if single else list(map(float, read(self.outputs)))
+        if read is None:
+            return super().get_real(vrs)
+        outputs = self.outputs
+        if outputs is None:
+            return [0.0] * len(vrs)
+        return [float(read(outputs))] if single else list(map(float, read(outputs)))
 
-    def _remember_reader(self, key: tuple[int, ...]) -> None:
-        """Remember a validated list of Real value references: an attrgetter of the Outputs fields
-        when all are outputs (what a master reads every step), else None."""
+    def _remember_reader(self, key: tuple[int, ...]) -> tuple[Callable[[Outputs], Any] | None, bool]:
+        """Remember and return the reader of a validated list of Real value references: an attrgetter
+        of the Outputs fields when all are outputs (what a master reads every step), else None; and
+        whether the list has one reference."""
         if len(self._real_readers) >= _READER_CACHE:
             self._real_readers.clear()
         names = [self.vars[vr].name for vr in key]
-        if not names or not all(name in OUTPUT_FIELDS for name in names):
-            self._real_readers[key] = None
-            return
-        self._real_readers[key] = (operator.attrgetter(*(OUTPUT_FIELDS[n] for n in names)), len(names) == 1)
+        read = None
+        if names and all(name in OUTPUT_FIELDS for name in names):
+            read = operator.attrgetter(*(OUTPUT_FIELDS[n] for n in names))
+        reader = self._real_readers[key] = (read, len(names) == 1)
+        return reader
 
     def get_integer(self, vrs: list[int]) -> list[int]:
         if self._variables(vrs, Integer, "fmi2GetInteger") is None:
@@ -366,7 +369,8 @@ class PendulumSlave(Fmi2Slave):
         if self.init_error is not None:
             self._error(f"doStep refused: {self.init_error}")
             return False
-        if self.model is None or self.terminated:
+        model, torque = self.model, self.torque  # locals: this runs at every step
+        if model is None or self.terminated:
             self._error("doStep refused: the FMU is " + ("terminated" if self.terminated else "not initialised"))
             return False
         if self.broken is not None:
@@ -375,20 +379,19 @@ class PendulumSlave(Fmi2Slave):
         if not (math.isfinite(step_size) and step_size > 0):
             self._error(f"doStep refused: communication step size {step_size!r} must be a finite number > 0")
             return False
-        mismatch = abs(current_time - self.model.time)  # the cheap test first: the tolerance is >= _TIME_TOL
+        mismatch = abs(current_time - model.time)  # the cheap test first: the tolerance is >= _TIME_TOL
         if mismatch > _TIME_TOL and mismatch > _TIME_TOL * max(1.0, abs(current_time)):
             self._error(
-                f"doStep refused: communication point {current_time!r} does not match the FMU's time "
-                f"{self.model.time!r}"
+                f"doStep refused: communication point {current_time!r} does not match the FMU's time {model.time!r}"
             )
             return False
-        if not math.isfinite(self.torque):
-            self._error(f"doStep refused: torque = {self.torque!r} is not allowed, it must be a finite number (N.m)")
+        if not math.isfinite(torque):
+            self._error(f"doStep refused: torque = {torque!r} is not allowed, it must be a finite number (N.m)")
             return False
         self._route_log()  # as _logging(), without a generator's cost at every step
         try:
-            self.outputs = self.model.advance(current_time + step_size, self.torque)
-            if self.vtk is not None and self.vtk.due(self.model.time):
+            self.outputs = model.advance(current_time + step_size, torque)
+            if self.vtk is not None and self.vtk.due(model.time):
                 self._write_frame()
         except StepFailed as exc:
             self.log(f"doStep discarded at t = {current_time!r}, state kept: {exc}", Fmi2Status.discard)

@@ -310,11 +310,14 @@ def deepest_point(arc: Arc, block: WallBlock, pieces: list[Piece]) -> tuple[floa
     cx, cy, R = arc.cx, arc.cy, arc.radius
     faces = face_depths(block)
     best = (-math.inf, 0.0, 0.0, -1)
-    for a, b, face, _ in pieces:
+    for a, b, face, whole in pieces:
         c, gx, gy = faces[face]
         peak = math.atan2(gy, gx)
         peak += TWO_PI * math.ceil((a - peak) / TWO_PI)
-        candidates = (a, b, peak) if peak <= b else (a, b)
+        if peak > b:
+            candidates: tuple[float, ...] = (a, b)
+        else:  # a whole segment's ends lie on the face (depth 0): its deepest point is the peak
+            candidates = (peak,) if whole else (a, b, peak)
         for ang in candidates:
             px, py = cx + R * math.cos(ang), cy + R * math.sin(ang)
             d = c + gx * px + gy * py
@@ -329,8 +332,9 @@ def _on_arc(arc: Arc, angle: float) -> bool:
 
 def point_box(px: float, py: float, block: WallBlock) -> tuple[float, float, float]:
     """Distance from a point outside (or on) the block to it, and the nearest block point."""
-    qx = min(max(px, block.x_min), block.x_max)
-    qy = min(max(py, block.y_min), block.y_max)
+    x_min, x_max, y_min, y_max = block.x_min, block.x_max, block.y_min, block.y_max
+    qx = x_min if px < x_min else x_max if px > x_max else px  # not builtin min/max: a gap asks this
+    qy = y_min if py < y_min else y_max if py > y_max else py
     return math.hypot(px - qx, py - qy), qx, qy
 
 

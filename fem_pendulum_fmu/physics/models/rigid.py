@@ -320,7 +320,6 @@ class RigidModel(SteppedModel[tuple]):
             return u
         u_new = u - g / dg
         du, size = abs(u_new - u), abs(u_new)
-        scale = mgd + 0.5 * inertia * w0 * w0 + abs(torque * u)
         gain_c, gain = self._free_gain
         if gain_c != c:  # a new step size (free flight keeps one): the bound's factor again
             gain = _free_newton_gain(c, abs(mgd))
@@ -328,8 +327,10 @@ class RigidModel(SteppedModel[tuple]):
         bound = gain * du * du  # the next update's: accept if either passes
         if bound < du:
             du = bound
-        # _converged, inlined: this is every free-flight step's test
-        return u_new if du <= 1e-15 * size + 1e-20 or c * du * size <= ENERGY_ROUNDOFF * scale else None
+        if du <= 1e-15 * size + 1e-20:  # _converged, inlined (every free-flight step's test), its
+            return u_new  # energy test only when needed
+        scale = mgd + 0.5 * inertia * w0 * w0 + abs(torque * u)
+        return u_new if c * du * size <= ENERGY_ROUNDOFF * scale else None
 
     # ------------------------------------------------------------- advance
     def advance(self, t_end: float, torque: float) -> Outputs:
