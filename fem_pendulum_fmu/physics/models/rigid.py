@@ -47,6 +47,7 @@ ENERGY_ROUNDOFF = 1e-15  # relative energy imbalance per step accepted as conver
 NEWTON_MARGIN = 10.0  # how much larger than quadratic convergence predicts the next Newton update is taken
 SMALL_STEP = 1e-9  # |q1 - q0| (rad) below which the contact difference quotient is replaced by a derivative
 APPROACH_SPEED_FLOOR = 1e-3  # m/s: a head at rest near the block is assumed to approach at least this fast
+_SPEED_FLOOR2 = APPROACH_SPEED_FLOOR**2
 NEAR_FRACTION = 1.0  # contact scales are reported while the gap is below this many head radii
 FREE_MARGIN = 1e-9  # m of clearance a step must keep, beyond its sweep, to skip the contact law
 NO_CONTACT = rigid_contact.Penalty(0.0, 0.0, 0.0, 0.0, 0.0)
@@ -289,8 +290,9 @@ class RigidModel(SteppedModel[tuple]):
                 hi = u
             u_new = u - g / dg if dg > 0.0 else math.nan
             if lo <= u_new <= hi:
-                du, size = abs(u_new - u), abs(u_new)
-                if _converged(du, size, c, scale) or _converged(_next_update(du, last), size, c, scale):
+                du = abs(u_new - u)
+                ahead = _next_update(du, last)  # the stopping test is monotone: the smaller of the two decides
+                if _converged(du if du < ahead else ahead, abs(u_new), c, scale):
                     return u_new
                 last = du
             if not lo < u_new < hi:  # Newton left the bracket (or G' <= 0): bisect or widen
@@ -362,9 +364,9 @@ class RigidModel(SteppedModel[tuple]):
             return None
         q1 = q0 + u
         x = (q1, 2.0 * u / dt - w0, work + torque * u)
-        D = self._depth
+        D, cos_q1 = self._depth, math.cos(q1)
         gap1 = rigid_contact.clear_gap(
-            D * math.sin(q1), -D * math.cos(q1), self._radius, q1 + self._arc_offset, self._arc_length, self.block
+            D * math.sin(q1), -D * cos_q1, self._radius, q1 + self._arc_offset, self._arc_length, self.block
         )
         if gap1 is None:  # the arc's end is nearest: signed_gap's exact outside distance
             gap1 = rigid_contact.signed_gap(self.arc(q1), self.block)[0]
@@ -372,23 +374,24 @@ class RigidModel(SteppedModel[tuple]):
         # no contact force or impulse, the contact's hold shrinking
         min_gap = gap0 if contact_on and gap0 < gap1 else gap1
         hold = last.contact_hold - HOLD_DECAY * dt
-        out = self._free_outputs(x, t_end, gap1, min_gap, hold if hold > 0.0 else 0.0)
+        out = self._free_outputs(x, cos_q1, t_end, gap1, min_gap, hold if hold > 0.0 else 0.0)
         self._x, self.time, self._outputs, self.last_min_gap = x, t_end, out, min_gap
         return out
 
-    def _free_outputs(self, x: tuple, t: float, gap: float, min_gap: float, hold: float) -> Outputs:
-        """`_compute_outputs` of a free-flight step's end x (off the block, at gap `gap`), with the
-        advance's min_gap and contact_hold and no contact force or impulse, built in one call."""
+    def _free_outputs(self, x: tuple, cos_q: float, t: float, gap: float, min_gap: float, hold: float) -> Outputs:
+        """`_compute_outputs` of a free-flight step's end x (off the block, at gap `gap`; cos_q the cosine
+        of its angle), with the advance's min_gap and contact_hold and no contact force or impulse."""
         q, w, work = x
         kinetic = 0.5 * self.inertia * w * w
-        potential = -self._mgd * math.cos(q)
+        potential = -self._mgd * cos_q
         total = kinetic + potential + 0.0  # as _compute_outputs: plus the (zero) contact energy
+        # theta wrapped as math.remainder(q, 2 pi) does, which leaves |q| < pi as it is (a call spared)
+        theta = q if -math.pi < q < math.pi else math.remainder(q, TWO_PI)
         # positional, in the order of Outputs' fields: time, theta, omega, gap, contact_force, kinetic,
         # potential, strain, contact, total, torque_work, von_mises_max, substeps, min_gap,
         # contact_force_max, contact_impulse, contact_hold
         return Outputs(
-            t, math.remainder(q, TWO_PI), w, gap, 0.0, kinetic, potential, 0.0, 0.0, total, work, 0.0, 1,
-            min_gap, 0.0, 0.0, hold,
+            t, theta, w, gap, 0.0, kinetic, potential, 0.0, 0.0, total, work, 0.0, 1, min_gap, 0.0, 0.0, hold,
         )  # fmt: skip
 
     def gap_and_rate(self, x: tuple) -> tuple[float, float]:
@@ -419,7 +422,7 @@ class RigidModel(SteppedModel[tuple]):
         m_eff = effective_mass(self.inertia, slope, self._depth)
         energy = self._contact(q)[1].energy
         law = energy / (-gap) ** 2.5 if gap < 0.0 and energy > 0.0 else self._flat_law
-        speed2 = max(rate * rate, APPROACH_SPEED_FLOOR**2)
+        speed2 = rate * rate if rate * rate > _SPEED_FLOOR2 else _SPEED_FLOOR2  # not builtin max: every substep
         available = energy + 0.5 * m_eff * speed2
         delta = (available / law) ** 0.4
         k_sec = 2.0 * law * math.sqrt(delta)
