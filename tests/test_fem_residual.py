@@ -111,6 +111,34 @@ def test_compiled_jacobian_equals_the_forms_linearisation(case: str) -> None:
     assert np.max(np.abs(full.data - mine)) <= 1e-12 * np.max(np.abs(full.data))
 
 
+@pytest.mark.parametrize("case", ["rubber, turned", "steel in contact"])
+def test_fused_iteration_equals_the_separate_calls(case: str) -> None:
+    """femp_iterate (fem_iteration.py) makes the residual's and the update's operations in their order: the
+    same iterate and correction size bit for bit, turned or not, with the contact term or without."""
+    if native.kernels() is None:
+        pytest.fail("no C compiler: the compiled kernel cannot be tested on this machine")
+    model = FemModel(compliant() if case.startswith("rubber") else stiff())
+    if case == "steel in contact":
+        _in_contact(model)
+    else:
+        for k in range(3):
+            model.advance((k + 1) * 1e-3, 0.0)
+    _residuals(model, 0.0 if case == "steel in contact" else 0.7)  # loads the step, sets the iterate
+    nw = model.newton
+    assert nw._fused is not None and nw._split is not None
+    w, start = nw.w.vec, nw._w_np.copy()
+    turn = 0.0 if case == "steel in contact" else 2e-3
+    assert nw._split.apply_contact(w, nw._res) == (case == "steel in contact")
+    separate = []
+    for _ in range(2):
+        nw._apply(w, nw._res)
+        separate.append((nw._update(turn), nw._w_np.copy()))
+    nw._w_np[:] = start
+    for size, iterate in separate:
+        assert nw._fused.iterate(nw._split.apply_contact(w, nw._res), turn) == size
+        assert np.array_equal(nw._w_np, iterate)
+
+
 def test_held_factor_solves_and_rescales(kernels: str) -> None:
     """The LU solve equals scipy's, and the rescaled inertia term equals a matrix assembled at that step;
     with the kernel the factors are its own (multipliers last) and SuperLU's where a pivot vanishes."""

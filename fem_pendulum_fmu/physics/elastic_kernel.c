@@ -300,3 +300,74 @@ void femp_stress_tangent(int q, const int *indptr, const int *indices, const dou
         }
     }
 }
+
+/* One Newton iteration of the energy-momentum step form in a single call (models/fem_iteration.py fills the
+ * struct): the residual's linear terms and stress term added to res (which holds the wall contact term, or is
+ * overwritten), the correction of the held factors turned by the angle whose cosine and sine are c and s
+ * (turn 0: not turned), and w -= the correction. The same operations in the same order as the separate
+ * kernels above, so the results are the same bit for bit; what it saves is the Python between them. */
+struct femp_csr {
+    int n;
+    const int *indptr, *indices;
+    const double *data;
+};
+struct femp_body {
+    int q;
+    const int *indptr, *indices;
+    const double *data;
+    const double *F0, *C0, *weights;
+    double lam, mu;
+    int n_gauss;
+    const double *gauss_s, *gauss_w;
+};
+struct femp_factors {
+    int n;
+    const int *free_dofs;
+    const double *scale;
+    const int *perm_r, *perm_c, *Lp, *Li;
+    const double *Lx;
+    const int *Up, *Ui;
+    const double *Ux, *u_diag;
+    double *work;
+};
+struct femp_iteration {
+    int size, n_disp, nS, n_bodies;
+    struct femp_body bodies[2];
+    struct femp_csr mass, hinge, torque;
+    const double *constant, *wv;
+    double inertia, half_torque;
+    struct femp_factors lu;
+    int nturn;
+    const int *ix, *iy;
+    double *res, *moved, *turned, *corr, *w;
+};
+
+static void csr_axpy(const struct femp_csr *m, double a, const double *x, double *out) {
+    femp_csr_axpy(m->n, m->indptr, m->indices, m->data, a, x, out);
+}
+
+double femp_iterate(const struct femp_iteration *it, int res_holds_contact, int turn, double c, double s) {
+    int size = it->size;
+    double *res = it->res;
+    if (res_holds_contact)
+        for (int i = 0; i < size; ++i) res[i] += it->constant[i];
+    else
+        for (int i = 0; i < size; ++i) res[i] = it->constant[i];
+    for (int i = 0; i < size; ++i) it->moved[i] = it->w[i] - it->wv[i];
+    csr_axpy(&it->mass, it->inertia, it->moved, res);
+    csr_axpy(&it->hinge, 1.0, it->w, res);
+    if (it->half_torque != 0.0) csr_axpy(&it->torque, it->half_torque, it->w, res);
+    for (int b = 0; b < it->n_bodies; ++b) {
+        const struct femp_body *y = &it->bodies[b];
+        femp_stress_residual(y->q, y->indptr, y->indices, y->data, it->nS, it->w, y->F0, y->C0, y->weights, y->lam,
+                             y->mu, y->n_gauss, y->gauss_s, y->gauss_w, res);
+    }
+    const struct femp_factors *f = &it->lu;
+    if (turn)
+        femp_turned_solve(it->nturn, it->ix, it->iy, c, s, f->n, f->free_dofs, f->scale, f->perm_r, f->perm_c, f->Lp,
+                          f->Li, f->Lx, f->Up, f->Ui, f->Ux, f->u_diag, res, it->turned, f->work, it->corr, size);
+    else
+        femp_lu_solve(f->n, f->free_dofs, f->scale, f->perm_r, f->perm_c, f->Lp, f->Li, f->Lx, f->Up, f->Ui, f->Ux,
+                      f->u_diag, res, f->work, it->corr);
+    return femp_update(size, it->n_disp, it->corr, it->w);
+}

@@ -47,6 +47,7 @@ SIGNATURES = {
     "femp_strain_energy": (_I, _P, _P, _P, _I, _P, _P, _D, _D),
     "femp_lu_factor": (_I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _D, _P),
     "femp_stress_tangent": (_I, _P, _P, _P, _I, _P, _P, _P, _P, _D, _D, _I, _P, _P, _P, _P, _P),
+    "femp_iterate": (_P, _I, _I, _D, _D),
     "femp_reduced_strain_energy": (_P, _P),
     "femp_reduced_strain_gradient": (_P, _P, _P),
     "femp_reduced_strain_hessian": (_P, _P, _P),
@@ -56,6 +57,7 @@ SIGNATURES = {
 }
 RESULTS = {
     **{name: ctypes.c_double for name in ("femp_update", "femp_min_det", "femp_strain_energy", "femp_lu_factor")},
+    "femp_iterate": ctypes.c_double,
     **{name: ctypes.c_double for name in ("femp_reduced_strain_energy", "femp_reduced_gap")},
     "femp_reduced_step": ctypes.c_int,
 }

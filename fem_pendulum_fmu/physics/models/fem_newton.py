@@ -32,7 +32,9 @@ import scipy.sparse as sp
 from ngsolve import GridFunction
 
 from .. import native
+from .fem_iteration import FusedIteration
 from .fem_lu import HeldFactor
+from .fem_residual import SplitResidual
 from .fem_space import FemSpace, FemState
 
 # With the residual compiled (fem_residual.py) an iteration costs about 0.16 ms on the rubber scene's mesh,
@@ -181,6 +183,11 @@ class HeldJacobianNewton:
         self._factor = HeldFactor(free, None if inertia is None else inertia[0], multipliers)
         self._inertia_coeff = None if inertia is None else inertia[1]
         self._jacobian = None if tangent is None or self._lib is None else self._compiled_jacobian(tangent)
+        self._split, self._fused = None, None  # one kernel call an iteration where the residual is the split one
+        if isinstance(residual, SplitResidual) and self._lib is not None:
+            vectors = (self._res_np, self._turned_np, self._corr_np, self._w_np)
+            self._split = residual
+            self._fused = FusedIteration(self._lib, residual, turn.kernel_args, self._factor, vectors)
         self.counts = NewtonCounts()
         self.held: JacobianPoint | None = None
         self.ready = False  # the held Jacobian is assembled and factorised (False after a restore)
@@ -222,8 +229,11 @@ class HeldJacobianNewton:
                 self._refresh(xs, dt, torque)
                 refresh = False
                 turn = 0.0
-            self._apply(self.w.vec, res)
-            size = self._update(turn)
+            if self._fused is not None and self._split is not None:
+                size = self._fused.iterate(self._split.apply_contact(self.w.vec, res), turn)
+            else:
+                self._apply(self.w.vec, res)
+                size = self._update(turn)
             self.counts.iterations += 1
             if size < 0.0:
                 return None  # not finite

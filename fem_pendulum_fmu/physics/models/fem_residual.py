@@ -86,6 +86,11 @@ class LinearTerms:
             self._add_torque_grad(0.5 * torque_load, w0, constant)
         self._coeffs = (inertia, 0.5 * torque_load)
 
+    def kernel_arrays(self) -> tuple[list[tuple], tuple[int, int, int]]:
+        """The kernel's arguments of the mass, hinge and torque matrices (rows, indptr, indices, data
+        addresses), and the addresses of the constant part, u0 + dt v0 and the scratch w - u0 - dt v0."""
+        return self._args, (self._constant.ctypes.data, self._wv.ctypes.data, self._moved_at)
+
     @property
     def coefficients(self) -> tuple[float, float]:
         """The loaded step's factors on the mass matrix and on the torque's matrix T1."""
@@ -248,6 +253,11 @@ class ElasticTerms:
         for b in self._bodies:
             self._add_numpy(b, u, out)
 
+    @property
+    def kernel_args(self) -> list[tuple[tuple, tuple]]:
+        """Per body, femp_stress_residual's arguments before u and between u and out (_Body.kernel_args)."""
+        return self._args
+
     def local_unknowns(self) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per body, femp_stress_tangent's local unknowns: (start of each point's block, shared by the
         consecutive points of an element; the unknowns of the blocks' entries as (row, column) pairs,
@@ -355,12 +365,17 @@ class SplitResidual:
         form.AssembleLinearization(w)
         return form.mat
 
+    def apply_contact(self, w: ngs.BaseVector, res: ngs.BaseVector) -> bool:
+        """res = the wall contact term at w, if it can act (True), else res untouched (False)."""
+        form = self._contact
+        if form is None or self._active is None or self._active.NumSet() == 0:
+            return False
+        form.Apply(w, res)
+        return True
+
     def __call__(self, w: ngs.BaseVector, res: ngs.BaseVector) -> None:
         (wn, w_at), (out, out_at) = self._view(w), self._view(res)
-        form, first = self._contact, True
-        if form is not None and self._active is not None and self._active.NumSet() > 0:
-            form.Apply(w, res)
-            first = False
+        first = not self.apply_contact(w, res)
         self.linear.add(wn, out, (w_at, out_at), first=first)
         self.elastic.add(wn, out, (w_at, out_at))
 

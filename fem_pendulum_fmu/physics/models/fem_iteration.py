@@ -1,0 +1,87 @@
+"""One Newton iteration of the energy-momentum step in a single kernel call (femp_iterate, elastic_kernel.c).
+
+On the rubber scene's mesh an iteration cost about 150 us, of which the
+kernels' arithmetic (stress, linear terms, the held factors' solve) about
+115 us: the rest was the Python between the six calls that made it (views,
+numpy copies, ctypes converting some 60 arguments). The struct here holds
+what those calls took, filled once (and its factors' part after each
+factorisation), so that an iteration is one call of five arguments. The
+kernel makes the same operations in the same order as the separate calls:
+the results are the same bit for bit (tests/test_fem_residual.py).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+
+import numpy as np
+
+from .fem_lu import HeldFactor
+from .fem_residual import SplitResidual
+
+_I, _D, _P = ctypes.c_int, ctypes.c_double, ctypes.c_void_p
+
+
+class _Csr(ctypes.Structure):
+    _fields_ = [("n", _I), ("indptr", _P), ("indices", _P), ("data", _P)]
+
+
+class _Body(ctypes.Structure):
+    _fields_ = [("q", _I), ("indptr", _P), ("indices", _P), ("data", _P), ("F0", _P), ("C0", _P)]
+    _fields_ += [("weights", _P), ("lam", _D), ("mu", _D), ("n_gauss", _I), ("gauss_s", _P), ("gauss_w", _P)]
+
+
+class _Factors(ctypes.Structure):
+    _fields_ = [("n", _I), ("free_dofs", _P), ("scale", _P), ("perm_r", _P), ("perm_c", _P), ("Lp", _P)]
+    _fields_ += [("Li", _P), ("Lx", _P), ("Up", _P), ("Ui", _P), ("Ux", _P), ("u_diag", _P), ("work", _P)]
+
+
+class _Iteration(ctypes.Structure):
+    """struct femp_iteration of elastic_kernel.c, field for field."""
+
+    _fields_ = [("size", _I), ("n_disp", _I), ("nS", _I), ("n_bodies", _I), ("bodies", _Body * 2)]
+    _fields_ += [("mass", _Csr), ("hinge", _Csr), ("torque", _Csr), ("constant", _P), ("wv", _P)]
+    _fields_ += [("inertia", _D), ("half_torque", _D), ("lu", _Factors), ("nturn", _I), ("ix", _P), ("iy", _P)]
+    _fields_ += [("res", _P), ("moved", _P), ("turned", _P), ("corr", _P), ("w", _P)]
+
+
+class FusedIteration:
+    """iterate(contact, turn): one Newton iteration on the solver's vectors, as HeldJacobianNewton's
+    residual and update would make it; returns the correction's largest displacement entry (-1 if not
+    finite). The split residual's arrays and the vectors must stay where they are (they do: all are
+    allocated once)."""
+
+    def __init__(
+        self,
+        lib: ctypes.CDLL,
+        split: SplitResidual,
+        turn_args: tuple,
+        factor: HeldFactor,
+        vectors: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    ):
+        self._lib, self._split, self._factor = lib, split, factor
+        it = self._it = _Iteration()
+        res, turned, corr, w = vectors
+        it.size, it.n_disp, it.nS = len(w), 2 * split.elastic.nS, split.elastic.nS
+        bodies = split.elastic.kernel_args
+        if len(bodies) > 2:
+            raise ValueError("femp_iterate takes at most two bodies")
+        it.n_bodies = len(bodies)
+        for i, ((q, indptr, indices, data, _nS), middle) in enumerate(bodies):
+            it.bodies[i] = _Body(q, indptr, indices, data, *middle)
+        matrices, (it.constant, it.wv, moved) = split.linear.kernel_arrays()
+        it.mass, it.hinge, it.torque = (_Csr(*args) for args in matrices)
+        it.nturn, it.ix, it.iy = turn_args
+        it.res, it.moved, it.turned = res.ctypes.data, moved, turned.ctypes.data
+        it.corr, it.w = corr.ctypes.data, w.ctypes.data
+        self._ref = ctypes.byref(it)
+        self._factor_args: tuple = ()
+
+    def iterate(self, contact: bool, turn: float) -> float:
+        it, factor = self._it, self._factor
+        if factor.kernel_args is not self._factor_args:  # factorised anew since the last call
+            self._factor_args = factor.kernel_args
+            it.lu = _Factors(*factor.kernel_args, factor.work_at)
+        it.inertia, it.half_torque = self._split.linear.coefficients
+        return float(self._lib.femp_iterate(self._ref, contact, turn != 0.0, math.cos(turn), math.sin(turn)))
