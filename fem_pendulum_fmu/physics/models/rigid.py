@@ -137,7 +137,8 @@ class RigidModel(SteppedModel[tuple]):
         self.control = StepControl.for_scene(scene)
         self._memo: dict[float, tuple] = {}  # pure functions of the angle, so caching keeps runs deterministic
         self._gap_memo: dict[float, tuple[float, float]] = {}
-        self._free_gain = (math.nan, math.inf)  # (c, _free_newton_gain) of the last free-flight step size
+        # the last free-flight step size dt, 2 I / dt^2, dt^2 / 2 and _free_newton_gain at it
+        self._free_consts = (math.nan, math.nan, math.nan, math.inf)
         self._sampler: VertexSampler | None = None  # the mesh's vertices, for fields()
         self.time = 0.0
         self._x = self.state(scene.theta0, scene.omega0)
@@ -312,8 +313,12 @@ class RigidModel(SteppedModel[tuple]):
         next update, bounded a priori (_free_newton_gain), would pass the stopping test; None when it
         would not (then _solve iterates). This is a free-flight step's whole solve."""
         inertia, mgd = self.inertia, self._mgd
-        c = 2.0 * inertia / (dt * dt)
-        u = dt * w0 + 0.5 * dt * dt * (torque - mgd * math.sin(q0)) / inertia
+        step, c, half_dt2, gain = self._free_consts
+        if step != dt:  # a new step size (free flight keeps one): its constants again
+            c, half_dt2 = 2.0 * inertia / (dt * dt), 0.5 * dt * dt
+            gain = _free_newton_gain(c, abs(mgd))
+            self._free_consts = (dt, c, half_dt2, gain)
+        u = dt * w0 + half_dt2 * (torque - mgd * math.sin(q0)) / inertia
         quot, dquot = _gravity_quotient(mgd, q0, u)
         g, dg = c * (u - dt * w0) - torque + quot, c + dquot
         if not (dg > 0.0 and math.isfinite(g) and math.isfinite(dg)):
@@ -322,10 +327,6 @@ class RigidModel(SteppedModel[tuple]):
             return u
         u_new = u - g / dg
         du, size = abs(u_new - u), abs(u_new)
-        gain_c, gain = self._free_gain
-        if gain_c != c:  # a new step size (free flight keeps one): the bound's factor again
-            gain = _free_newton_gain(c, abs(mgd))
-            self._free_gain = (c, gain)
         bound = gain * du * du  # the next update's: accept if either passes
         if bound < du:
             du = bound
