@@ -46,6 +46,9 @@ NEWTON_MAX_IT = 80
 ENERGY_ROUNDOFF = 1e-15  # relative energy imbalance per step accepted as converged
 NEWTON_MARGIN = 10.0  # how much larger than quadratic convergence predicts the next Newton update is taken
 SMALL_STEP = 1e-9  # |q1 - q0| (rad) below which the contact difference quotient is replaced by a derivative
+# |q1 - q0| (rad) above which the contact quotient's derivative is exact (below, Newton's G' is approximate
+# and its convergence linear: no quadratic prediction of the next update there)
+EXACT_DERIVATIVE = 1e-6
 APPROACH_SPEED_FLOOR = 1e-3  # m/s: a head at rest near the block is assumed to approach at least this fast
 _SPEED_FLOOR2 = APPROACH_SPEED_FLOOR**2
 NEAR_FRACTION = 1.0  # contact scales are reported while the gap is below this many head radii
@@ -209,7 +212,7 @@ class RigidModel(SteppedModel[tuple]):
         pen = self._contact(q0 + u)[1]
         if abs(u) > SMALL_STEP:
             qc = (pen.energy - e0) / u
-            dqc = (pen.d_energy - qc) / u if abs(u) > 1e-6 else 0.5 * pen.d2_energy
+            dqc = (pen.d_energy - qc) / u if abs(u) > EXACT_DERIVATIVE else 0.5 * pen.d2_energy
         else:  # E'(midpoint) to O(u^2)
             qc = pen.d_energy - 0.5 * u * pen.d2_energy
             dqc = 0.5 * pen.d2_energy
@@ -292,10 +295,11 @@ class RigidModel(SteppedModel[tuple]):
             u_new = u - g / dg if dg > 0.0 else math.nan
             if lo <= u_new <= hi:
                 du = abs(u_new - u)
-                ahead = _next_update(du, last)  # the stopping test is monotone: the smaller of the two decides
-                if _converged(du if du < ahead else ahead, abs(u_new), c, scale):
+                exact = not contact or abs(u) > EXACT_DERIVATIVE  # G' exact: quadratic convergence
+                ahead = _next_update(du, last) if exact else math.inf
+                if _converged(du if du < ahead else ahead, abs(u_new), c, scale):  # monotone: the smaller decides
                     return u_new
-                last = du
+                last = du if exact else 0.0
             if not lo < u_new < hi:  # Newton left the bracket (or G' <= 0): bisect or widen
                 last = 0.0
                 if math.isfinite(lo) and math.isfinite(hi):
