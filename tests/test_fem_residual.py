@@ -87,20 +87,27 @@ def _in_contact(model: FemModel) -> None:
         assert t < 0.3, "the pendulum never came near the wall"
 
 
-@pytest.mark.parametrize("case", ["steel", "rubber", "steel in contact"])
-def test_compiled_jacobian_equals_the_forms_linearisation(case: str) -> None:
-    """The Newton Jacobian from the kernel's stress tangent, the linear terms' matrices and the contact
-    term's own linearisation (fem_residual.SplitJacobian) against NGSolve's linearisation of the full form,
-    at a perturbed iterate with a torque: equal to 5e-16 of the largest entry (measured), so to 1e-12."""
+def _loaded_at_an_iterate(case: str) -> FemModel:
+    """A compiled model ("steel", "rubber..." or "steel in contact") with its next step loaded and a
+    perturbed iterate set (a torque of 0.7 N.m out of contact)."""
     if native.kernels() is None:
         pytest.fail("no C compiler: the compiled kernel cannot be tested on this machine")
-    model = FemModel(compliant() if case == "rubber" else stiff())
+    model = FemModel(compliant() if case.startswith("rubber") else stiff())
     if case == "steel in contact":
         _in_contact(model)
     else:
         for k in range(3):
             model.advance((k + 1) * 1e-3, 0.0)
     _residuals(model, 0.0 if case == "steel in contact" else 0.7)  # loads the step, sets the iterate
+    return model
+
+
+@pytest.mark.parametrize("case", ["steel", "rubber", "steel in contact"])
+def test_compiled_jacobian_equals_the_forms_linearisation(case: str) -> None:
+    """The Newton Jacobian from the kernel's stress tangent, the linear terms' matrices and the contact
+    term's own linearisation (fem_residual.SplitJacobian) against NGSolve's linearisation of the full form,
+    at a perturbed iterate with a torque: equal to 5e-16 of the largest entry (measured), so to 1e-12."""
+    model = _loaded_at_an_iterate(case)
     nw = model.newton
     assert nw._jacobian is not None
     mine = nw._jacobian(nw.w.vec)
@@ -115,15 +122,7 @@ def test_compiled_jacobian_equals_the_forms_linearisation(case: str) -> None:
 def test_fused_iteration_equals_the_separate_calls(case: str) -> None:
     """femp_iterate (fem_iteration.py) makes the residual's and the update's operations in their order: the
     same iterate and correction size bit for bit, turned or not, with the contact term or without."""
-    if native.kernels() is None:
-        pytest.fail("no C compiler: the compiled kernel cannot be tested on this machine")
-    model = FemModel(compliant() if case.startswith("rubber") else stiff())
-    if case == "steel in contact":
-        _in_contact(model)
-    else:
-        for k in range(3):
-            model.advance((k + 1) * 1e-3, 0.0)
-    _residuals(model, 0.0 if case == "steel in contact" else 0.7)  # loads the step, sets the iterate
+    model = _loaded_at_an_iterate(case)
     nw = model.newton
     assert nw._fused is not None and nw._split is not None
     w, start = nw.w.vec, nw._w_np.copy()
