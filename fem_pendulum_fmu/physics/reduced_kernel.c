@@ -12,7 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Field order and types must match ReducedKernelData in models/reduced_native.py. */
+/* Field order and types must match KernelData in models/reduced_native.py. */
 typedef struct {
     int m; /* modes; z = (theta, q) has n = m + 1 entries */
     double inertia0, g, hk;

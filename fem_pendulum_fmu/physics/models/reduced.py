@@ -24,6 +24,10 @@ split exactly into its p and q differences, and gravity + contact + strain get
 Gonzalez's correction in the mass metric. Over every step H changes by exactly
 the torque's work tau (d theta + beta . dq), so impacts neither gain nor lose
 energy. Step sizes come from stepping.py, as for the other fidelities.
+
+The step, the contact terms and the gap run in physics/reduced_kernel.c
+(models/reduced_native.py) where a C compiler built it; the numpy forms here
+are the same computation, the fallback and the kernel's test reference.
 """
 
 from __future__ import annotations

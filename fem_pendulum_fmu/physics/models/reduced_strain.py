@@ -46,8 +46,8 @@ class NeoHookeanStrain:
     the FE mesh (rotation-invariant, so the floating frame stays exact at large strains).
 
     The modes' displacement gradients are sampled once at the mesh's quadrature points; an
-    evaluation is then F = I + G q and the energy law at those points, in numpy: the reduced
-    model's hot loop never calls into the FE assembly."""
+    evaluation is then F = I + G q and the energy law at those points, in the compiled kernel
+    (numpy where none was built): the reduced model's hot loop never calls into the FE assembly."""
 
     def __init__(self, scene: Scene, phi: np.ndarray, omega2: np.ndarray):
         import ngsolve as ngs
