@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 from .protocol import StepFailed
-from .stepping import AdvanceResult, ContactTally, StepControl, Steppable, X
+from .stepping import AdvanceResult, ContactTally, StepControl, Steppable, X, check_substeps
 
 GAP_RULE = ((1e-3, 1e-4), (5e-3, 5e-4), (1e-2, 1e-3))  # (gap below, step), the seed's thresholds
 
@@ -59,10 +59,6 @@ def advance(
         x = x_new
         t = t_end if dt >= remaining else t + dt
         substeps += 1
-        if control.max_substeps and substeps >= control.max_substeps and t < t_end:
-            raise StepFailed(
-                f"the advance to t = {t_end:.9g} s needs more than solver.max_substeps = "
-                f"{control.max_substeps} internal steps (stopped at t = {t:.9g} s)"
-            )
+        check_substeps(control, substeps, t, t_end)
     min_gap = min(min_gap, model.gap_and_rate(x)[0])
     return AdvanceResult(x, substeps, rejected, min_gap, contact)

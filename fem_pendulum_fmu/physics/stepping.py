@@ -202,15 +202,20 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, co
         x = x_new
         t = t_end if dt >= remaining else t + dt
         substeps += 1
-        if control.max_substeps and substeps >= control.max_substeps and t < t_end:
-            raise StepFailed(
-                f"the advance to t = {t_end:.9g} s needs more than solver.max_substeps = "
-                f"{control.max_substeps} internal steps (stopped at t = {t:.9g} s); "
-                "retry with a shorter communication step"
-            )
+        check_substeps(control, substeps, t, t_end)
         dt_cap = min(control.max_step, 2.0 * dt_cap)
     min_gap = min(min_gap, model.gap_and_rate(x)[0])
     return AdvanceResult(x, substeps, rejected, min_gap, contact)
+
+
+def check_substeps(control: StepControl, substeps: int, t: float, t_end: float) -> None:
+    """StepFailed once an advance has taken solver.max_substeps accepted steps short of its end."""
+    if control.max_substeps and substeps >= control.max_substeps and t < t_end:
+        raise StepFailed(
+            f"the advance to t = {t_end:.9g} s needs more than solver.max_substeps = "
+            f"{control.max_substeps} internal steps (stopped at t = {t:.9g} s); "
+            "retry with a shorter communication step"
+        )
 
 
 def _hold_after(hold: float, gap0: float, gap1: float, dt: float) -> float:
