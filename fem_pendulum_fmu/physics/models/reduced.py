@@ -164,6 +164,7 @@ class ReducedModel(SteppedModel[tuple]):
         P = len(b.head_X)
         runs = np.array_split(np.arange(P), max(1, P // HEAD_GROUP))
         self._group_of_point = np.concatenate([np.full(len(r), k) for k, r in enumerate(runs)])
+        self._group_start = np.cumsum([0, *map(len, runs)])  # run k holds points group_start[k] to [k + 1] - 1
         self._group_centre = np.array([b.head_X[r].mean(axis=0) for r in runs])
         self._group_radius = np.array(
             [np.max(np.linalg.norm(b.head_X[r] - c, axis=1)) for r, c in zip(runs, self._group_centre, strict=True)]
@@ -176,7 +177,6 @@ class ReducedModel(SteppedModel[tuple]):
     def _bind_kernel(self) -> ReducedKernel | None:
         """The compiled step (physics/reduced_kernel.c) on this model's data, or None (numpy forms)."""
         b, blk = self.basis, self.block
-        runs = np.flatnonzero(np.diff(self._group_of_point)) + 1
         return reduced_kernel(
             **self._strain.kernel_fields(),
             inertia0=self.inertia0,
@@ -201,7 +201,7 @@ class ReducedModel(SteppedModel[tuple]):
             head_phi=b.head_phi,
             head_w=b.head_weights,
             groups=len(self._group_centre),
-            group_start=np.concatenate([[0], runs, [len(b.head_X)]]),
+            group_start=self._group_start,
             group_centre=self._group_centre,
             group_radius=self._group_radius,
             group_peak=self._group_peak,

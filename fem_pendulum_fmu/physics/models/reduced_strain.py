@@ -69,25 +69,26 @@ class NeoHookeanStrain:
         self._G = G.reshape(-1, phi.shape[1])
         self._lam, self._mu = scene.pendulum.lame
         self.linear_hessian = np.diag(omega2)  # the tangent at q = 0
-        self._omega2 = omega2
-        self._kernel = reduced_kernel(**self.kernel_fields())
-
-    def kernel_fields(self) -> dict:
-        """This energy's fields of the compiled kernel's data (models/reduced_native.py)."""
-        m, nqp = len(self._omega2), len(self._weights)
         weighted = self._G * np.repeat(self._weights, 4)[:, None]
-        return {
-            "m": m,
+        # the kernel's read-only fields, built once: this energy's kernel and the model's share them
+        self._fields = {
+            "m": len(omega2),
             "neo": 1,
-            "omega2": self._omega2,
-            "nqp": nqp,
-            "GT": self._G.T,
+            "omega2": omega2,
+            "nqp": len(self._weights),
+            "GT": np.ascontiguousarray(self._G.T),
             "qw": self._weights,
             "k_mu": self._mu * (weighted.T @ self._G),
             "lam": self._lam,
             "mu": self._mu,
-            "work": np.zeros(nqp * (4 + 10 * m)),
         }
+        self._kernel = reduced_kernel(**self.kernel_fields())
+
+    def kernel_fields(self) -> dict:
+        """This energy's fields of the compiled kernel's data (models/reduced_native.py), with a
+        scratch buffer of its own for each kernel."""
+        m, nqp = self._fields["m"], self._fields["nqp"]
+        return {**self._fields, "work": np.zeros(nqp * (4 + 10 * m))}
 
     def _kinematics(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         F = (self._G @ q).reshape(-1, 2, 2)
