@@ -148,7 +148,10 @@ def test_state_round_trip_and_refusals(slave):
     foreign = dict(restored, model=ModelState("fem", 1e-3))
     slave._set_fmu_state(foreign)
     assert "another fidelity" in slave.log_queue[-1].msg
-    assert "corrupt" in slave._fmu_state_from_bytes(b"junk")["error"]
+    assert slave._fmu_state_from_bytes(b"junk") is None  # refused where the bytes arrive, not at set
+    assert "not a serialised state of this FMU" in slave.log_queue[-1].msg
+    assert slave._fmu_state_from_bytes(slave._fmu_state_to_bytes(other)) is None
+    assert "gravity = 1.62" in slave.log_queue[-1].msg
     assert (slave.model.time, slave.model.calls) == (1e-3, 1)
 
 

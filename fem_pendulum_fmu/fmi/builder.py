@@ -2,9 +2,10 @@
 
 pythonfmu packages an entry script, project files and its binary. Its own
 modelDescription.xml (no units, no InitialUnknowns) is then replaced by the
-rendered template, its binary moves behind ours (shim/, compiled here with the
-system C compiler against this Python's headers) and the resources get what the
-shim reads: the interpreter to start in a host without Python
+rendered template, its linux64 binary by ours (shim/: the whole FMI 2.0
+interface in C, calling the Python slave; compiled here with the system C
+compiler against this Python's headers, with the FMU's GUID and capability
+flags) and the resources get what the binary reads: the interpreter to start in a host without Python
 (python_environment.txt), the packages to check (requirements.txt) and the
 check itself (femp_preflight.py). Every FMU must pass fmpy's validation.
 """
@@ -28,7 +29,8 @@ from .interface import TEMPLATE_NAME, render
 
 FMI_DIR = Path(__file__).resolve().parent
 PACKAGE_DIR = FMI_DIR.parent
-SHIM_SOURCES = ("fmu_shim.c", "python_runtime.c")
+SHIM_SOURCES = ("fmi2_functions.c", "fmi2_states.c", "call_frame.c", "slave.c", "state_machine.c", "fmu_states.c",
+                "python_runtime.c")
 # what the pendulum FMU imports at run time besides pythonfmu, which pythonfmu ships in every FMU's
 # resources (fmpy and the masters' packages are not among them)
 PENDULUM_REQUIREMENTS = ("ngsolve", "numpy", "scipy")
@@ -52,8 +54,26 @@ def python_environment_txt() -> str:
     return "".join(f"{key}={value}\n" for key, value in python_environment().items())
 
 
-def compile_shim(output: Path) -> bool:
-    """Compile the front binary (shim/) to `output`; False where there is no compiler or headers."""
+def capability_defines(model_description: str) -> list[str]:
+    """The compiler's -D flags that tell the binary its FMU: the GUID and the FMU state capabilities."""
+    from xml.etree import ElementTree
+
+    root = ElementTree.fromstring(model_description)
+    cosim = root.find("CoSimulation")
+    flags = cosim.attrib if cosim is not None else {}
+
+    def on(name: str) -> int:
+        return int(flags.get(name, "false") == "true")
+
+    return [
+        f'-DFMU_GUID="{root.attrib["guid"]}"',
+        f"-DFMU_CAN_GET_SET_STATE={on('canGetAndSetFMUstate')}",
+        f"-DFMU_CAN_SERIALIZE_STATE={on('canSerializeFMUstate')}",
+    ]
+
+
+def compile_shim(output: Path, model_description: str) -> bool:
+    """Compile the FMU's binary (shim/) to `output`; False where there is no compiler or headers."""
     import fmpy
 
     include = Path(sysconfig.get_paths()["include"])
@@ -71,6 +91,7 @@ def compile_shim(output: Path) -> bool:
             f"-I{Path(fmpy.__file__).parent / 'c-code'}",
             f"-I{include}",
             f"-I{FMI_DIR / 'shim'}",
+            *capability_defines(model_description),
             *sources,
             "-ldl",
             "-lpthread",
@@ -84,16 +105,16 @@ def compile_shim(output: Path) -> bool:
 
 
 def finish_fmu(fmu: Path, model_identifier: str, model_description: str, resources: dict[str, str]) -> None:
-    """Rewrite pythonfmu's archive: our modelDescription.xml, the shim in front of its linux64 binary
-    (renamed <id>_core.so) and the extra resources files."""
+    """Rewrite pythonfmu's archive: our modelDescription.xml, our linux64 binary in place of pythonfmu's
+    and the extra resources files."""
     binary = f"binaries/linux64/{model_identifier}.so"
     with tempfile.TemporaryDirectory() as tmp:
         shim = Path(tmp) / "shim.so"
-        has_shim = compile_shim(shim)
+        has_shim = compile_shim(shim, model_description)
         if not has_shim:
             print(
                 f"{fmu.name}: no C compiler or Python headers; the FMU has pythonfmu's binary alone "
-                "(no fmi2Error, no Python for native hosts, and pythonfmu's crash at exit; docs/fmu.md)"
+                "(no fmi2Error, no state machine, no Python for native hosts, pythonfmu's crash at exit; docs/fmu.md)"
             )
         staged = fmu.with_suffix(".tmp")
         with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(staged, "w", zipfile.ZIP_DEFLATED) as dst:
@@ -102,7 +123,6 @@ def finish_fmu(fmu: Path, model_identifier: str, model_description: str, resourc
                     continue
                 data = src.read(item.filename)
                 if item.filename == binary and has_shim:
-                    dst.writestr(f"binaries/linux64/{model_identifier}_core.so", data)
                     dst.write(shim, binary)
                 else:
                     dst.writestr(item, data)

@@ -1,11 +1,10 @@
 /* The Python an FMU of this project runs in (Linux).
  *
- * pythonfmu's binary does not link libpython and, when it finds no Python in
- * the process, starts one and finalises it when the process exits. Finalising
- * from an exit handler runs the extension modules' cleanup after their C++
- * statics are gone (NGSolve's segfaults, docs/fmu.md), so this file makes sure
- * a Python is running before pythonfmu's binary is ever called, and never
- * finalises the one it starts:
+ The FMU's binary does not link libpython. Finalising a Python from an exit
+ * handler runs the extension modules' cleanup after their C++ statics are gone
+ * (NGSolve's segfaults, docs/fmu.md), so this file makes sure a Python is
+ * running before the slave is ever called, and never finalises the one it
+ * starts:
  *
  *   1. a host that runs Python (fmpy, libcosimpy): nothing to do;
  *   2. otherwise load libpython globally: the one in FEM_PENDULUM_LIBPYTHON, else
@@ -18,7 +17,8 @@
  * dlsym: this library must load in a process that has no libpython.
  */
 #define _GNU_SOURCE
-#include <Python.h>
+#include "python_api.h" /* Python.h first, as it asks */
+
 #include <dlfcn.h>
 #include <pthread.h>
 #include <stdio.h>
@@ -27,54 +27,55 @@
 
 #include "python_runtime.h"
 
+PythonApi py;
+
 typedef struct {
-    int (*IsInitialized)(void);
-    const char *(*GetVersion)(void);
-    void (*ConfigInitPythonConfig)(PyConfig *);
-    PyStatus (*ConfigSetBytesString)(PyConfig *, wchar_t **, const char *);
-    PyStatus (*InitializeFromConfig)(const PyConfig *);
-    void (*ConfigClear)(PyConfig *);
-    int (*StatusException)(PyStatus);
-    PyThreadState *(*EvalSaveThread)(void);
-    PyGILState_STATE (*GILStateEnsure)(void);
-    void (*GILStateRelease)(PyGILState_STATE);
-    PyObject *(*ImportModule)(const char *);
-    PyObject *(*CallMethod)(PyObject *, const char *, const char *, ...);
-    PyObject *(*CallFunction)(PyObject *, const char *, ...);
-    PyObject *(*DictGetItemString)(PyObject *, const char *);
-    const char *(*UnicodeAsUTF8)(PyObject *);
-    PyObject *(*ObjectStr)(PyObject *);
-    void (*ErrFetch)(PyObject **, PyObject **, PyObject **);
-    void (*DecRef)(PyObject *);
-} PythonApi;
+    void **slot;
+    const char *name;
+} Binding;
 
-static PythonApi py;
+#define BIND(field, symbol) {(void **)&py.field, symbol}
 
-static int bind(void **slot, const char *name, char *why, size_t n) {
-    *slot = dlsym(RTLD_DEFAULT, name);
-    if (*slot == NULL) snprintf(why, n, "the loaded libpython has no %s", name);
-    return *slot != NULL;
-}
+static const Binding bindings[] = {
+    BIND(IsInitialized, "Py_IsInitialized"), BIND(GetVersion, "Py_GetVersion"),
+    BIND(ConfigInitPythonConfig, "PyConfig_InitPythonConfig"), BIND(ConfigSetBytesString, "PyConfig_SetBytesString"),
+    BIND(InitializeFromConfig, "Py_InitializeFromConfig"), BIND(ConfigClear, "PyConfig_Clear"),
+    BIND(StatusException, "PyStatus_Exception"), BIND(EvalSaveThread, "PyEval_SaveThread"),
+    BIND(GILStateEnsure, "PyGILState_Ensure"), BIND(GILStateRelease, "PyGILState_Release"),
+    BIND(ImportModule, "PyImport_ImportModule"), BIND(CallMethod, "PyObject_CallMethod"),
+    BIND(CallFunction, "PyObject_CallFunction"), BIND(Call, "PyObject_Call"),
+    BIND(GetAttrString, "PyObject_GetAttrString"), BIND(HasAttrString, "PyObject_HasAttrString"),
+    BIND(IsSubclass, "PyObject_IsSubclass"), BIND(IsTrue, "PyObject_IsTrue"), BIND(ObjectStr, "PyObject_Str"),
+    BIND(IncRef, "Py_IncRef"), BIND(DecRef, "Py_DecRef"), BIND(DictNew, "PyDict_New"),
+    BIND(DictSetItemString, "PyDict_SetItemString"), BIND(DictGetItemString, "PyDict_GetItemString"),
+    BIND(DictNext, "PyDict_Next"), BIND(TupleNew, "PyTuple_New"), BIND(ListNew, "PyList_New"),
+    BIND(ListSetItem, "PyList_SetItem"), BIND(ListGetItem, "PyList_GetItem"), BIND(ListSize, "PyList_Size"),
+    BIND(ListInsert, "PyList_Insert"), BIND(SequenceContains, "PySequence_Contains"),
+    BIND(SysGetObject, "PySys_GetObject"), BIND(LongFromUnsignedLong, "PyLong_FromUnsignedLong"),
+    BIND(LongFromLong, "PyLong_FromLong"), BIND(LongAsLong, "PyLong_AsLong"),
+    BIND(FloatFromDouble, "PyFloat_FromDouble"), BIND(FloatAsDouble, "PyFloat_AsDouble"),
+    BIND(BoolFromLong, "PyBool_FromLong"), BIND(UnicodeFromString, "PyUnicode_FromString"),
+    BIND(UnicodeAsUTF8, "PyUnicode_AsUTF8"), BIND(BytesFromStringAndSize, "PyBytes_FromStringAndSize"),
+    BIND(BytesAsStringAndSize, "PyBytes_AsStringAndSize"), BIND(ErrOccurred, "PyErr_Occurred"),
+    BIND(ErrFetch, "PyErr_Fetch"), BIND(ErrClear, "PyErr_Clear"), BIND(None, "_Py_NoneStruct"),
+};
 
 static int bind_api(char *why, size_t n) {
-    return bind((void **)&py.IsInitialized, "Py_IsInitialized", why, n) &&
-           bind((void **)&py.GetVersion, "Py_GetVersion", why, n) &&
-           bind((void **)&py.ConfigInitPythonConfig, "PyConfig_InitPythonConfig", why, n) &&
-           bind((void **)&py.ConfigSetBytesString, "PyConfig_SetBytesString", why, n) &&
-           bind((void **)&py.InitializeFromConfig, "Py_InitializeFromConfig", why, n) &&
-           bind((void **)&py.ConfigClear, "PyConfig_Clear", why, n) &&
-           bind((void **)&py.StatusException, "PyStatus_Exception", why, n) &&
-           bind((void **)&py.EvalSaveThread, "PyEval_SaveThread", why, n) &&
-           bind((void **)&py.GILStateEnsure, "PyGILState_Ensure", why, n) &&
-           bind((void **)&py.GILStateRelease, "PyGILState_Release", why, n) &&
-           bind((void **)&py.ImportModule, "PyImport_ImportModule", why, n) &&
-           bind((void **)&py.CallMethod, "PyObject_CallMethod", why, n) &&
-           bind((void **)&py.CallFunction, "PyObject_CallFunction", why, n) &&
-           bind((void **)&py.DictGetItemString, "PyDict_GetItemString", why, n) &&
-           bind((void **)&py.UnicodeAsUTF8, "PyUnicode_AsUTF8", why, n) &&
-           bind((void **)&py.ObjectStr, "PyObject_Str", why, n) &&
-           bind((void **)&py.ErrFetch, "PyErr_Fetch", why, n) &&
-           bind((void **)&py.DecRef, "Py_DecRef", why, n);
+    for (size_t k = 0; k < sizeof bindings / sizeof bindings[0]; k++) {
+        *bindings[k].slot = dlsym(RTLD_DEFAULT, bindings[k].name);
+        if (*bindings[k].slot == NULL) {
+            snprintf(why, n, "the loaded libpython has no %s", bindings[k].name);
+            return 0;
+        }
+    }
+    /* public from 3.13 on, private before */
+    py.IsFinalizing = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsFinalizing");
+    if (py.IsFinalizing == NULL) py.IsFinalizing = (int (*)(void))dlsym(RTLD_DEFAULT, "_Py_IsFinalizing");
+    return 1;
+}
+
+int python_alive(void) {
+    return py.IsInitialized != NULL && py.IsInitialized() && !(py.IsFinalizing != NULL && py.IsFinalizing());
 }
 
 /* The value of `key=` in resources/python_environment.txt, or "" (written by fmi/builder.py). */

@@ -9,4 +9,8 @@
  * written for the user, in `why` (n bytes). */
 int python_prepare(const char *resources, char *why, size_t n);
 
+/* 1 while the process's Python can be called: initialised and not being finalised (a Python host's
+ * exit-time destructors may call the FMU after its interpreter is gone). */
+int python_alive(void);
+
 #endif

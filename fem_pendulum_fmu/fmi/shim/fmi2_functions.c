@@ -1,0 +1,430 @@
+/* FMI 2.0 co-simulation interface of this project's FMUs (Linux): the exported fmi2 functions.
+ *
+ * Each call is checked against the state machine (state_machine.h) and its arguments before the
+ * Python slave object (slave.c) is called; a call that is not allowed answers fmi2Error with a log
+ * message naming the call and the state, and changes nothing. The Python is made ready by
+ * python_runtime.c; FMU states are handles of fmu_states.h and travel as bytes with a header of this
+ * binary (format, version, the FMU's GUID, the time). Built by fem_pendulum_fmu/fmi/builder.py with
+ * FMU_GUID and the modelDescription's capability flags defined; docs/fmu.md says what a host can
+ * rely on. */
+#include "python_api.h"
+
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+#include "python_runtime.h"
+#include "call_frame.h"
+#include "slave.h"
+#include "state_machine.h"
+
+#ifndef FMU_GUID
+#error "FMU_GUID must be defined (fem_pendulum_fmu/fmi/builder.py)"
+#endif
+#ifndef FMU_CAN_GET_SET_STATE
+#define FMU_CAN_GET_SET_STATE 0
+#endif
+#ifndef FMU_CAN_SERIALIZE_STATE
+#define FMU_CAN_SERIALIZE_STATE 0
+#endif
+
+/* ------------------------------------------------------------- life cycle */
+
+static void free_instance_memory(Instance *inst) {
+    for (size_t k = 0; k < inst->n_categories; k++) free(inst->categories[k]);
+    free(inst->categories);
+    registry_clear(&inst->states);
+    free(inst->name);
+    free(inst);
+}
+
+/* fmuResourceLocation (a file URI) as a path: file:///a%20b/resources -> /a b/resources */
+static void uri_to_path(const char *uri, char *path, size_t n) {
+    if (strncmp(uri, "file://", 7) == 0)
+        uri += 7;
+    else if (strncmp(uri, "file:", 5) == 0)
+        uri += 5;
+    size_t k = 0;
+    for (; *uri && k + 1 < n; k++) {
+        unsigned int byte;
+        if (uri[0] == '%' && sscanf(uri + 1, "%2x", &byte) == 1) {
+            path[k] = (char)byte;
+            uri += 3;
+        } else {
+            path[k] = *uri++;
+        }
+    }
+    path[k] = '\0';
+    if (k > 1 && path[k - 1] == '/') path[k - 1] = '\0';
+}
+
+/* Why fmi2Instantiate's arguments are refused, or NULL. */
+static const char *bad_instantiate_arguments(fmi2String name, fmi2Type type, fmi2String guid, fmi2String resources,
+                                             char *why, size_t n) {
+    if (name == NULL) return "instanceName is NULL";
+    if (type != fmi2CoSimulation) return "this FMU is for co-simulation only (fmuType must be fmi2CoSimulation)";
+    if (guid == NULL || strcmp(guid, FMU_GUID) != 0) {
+        snprintf(why, n, "the GUID %s is not this FMU's %s (modelDescription.xml)", guid ? guid : "(NULL)", FMU_GUID);
+        return why;
+    }
+    if (resources == NULL) return "fmuResourceLocation is NULL";
+    return NULL;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                              fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
+                              fmi2Boolean visible, fmi2Boolean loggingOn) {
+    char why[4096] = "", resources[4096];
+    if (functions == NULL || functions->logger == NULL) { /* FMI 2.0 requires both */
+        log_to_host(NULL, instanceName, fmi2Error, "logStatusError",
+                    "fmi2Instantiate refused: the host passed no callback functions or no logger");
+        return NULL;
+    }
+    const char *bad = bad_instantiate_arguments(instanceName, fmuType, fmuGUID, fmuResourceLocation, why, sizeof why);
+    if (bad != NULL) {
+        char message[4400];
+        snprintf(message, sizeof message, "fmi2Instantiate refused: %s", bad);
+        log_to_host(functions, instanceName, fmi2Error, "logStatusError", message);
+        return NULL;
+    }
+    uri_to_path(fmuResourceLocation, resources, sizeof resources);
+    if (exiting || python_prepare(resources, why, sizeof why) != 0) {
+        log_to_host(functions, instanceName, fmi2Error, "logStatusError", exiting ? "the process is exiting" : why);
+        return NULL;
+    }
+    Instance *inst = calloc(1, sizeof *inst);
+    if (inst == NULL || (inst->name = strdup(instanceName)) == NULL) {
+        free(inst);
+        return NULL;
+    }
+    inst->callbacks = *functions;
+    inst->logging_on = loggingOn == fmi2True;
+    inst->state = STATE_INSTANTIATED;
+    PyGILState_STATE gil = py.GILStateEnsure();
+    clear_reported_error();
+    int failed = slave_create(inst, resources, visible, why, sizeof why);
+    if (failed) slave_release(inst);
+    py.GILStateRelease(gil);
+    if (failed) {
+        log_to_host(functions, instanceName, fmi2Error, "logStatusError", why);
+        free_instance_memory(inst);
+        return NULL;
+    }
+    static int handler_registered = 0; /* after the slave's imports: runs before their exit-time cleanup */
+    if (!__atomic_exchange_n(&handler_registered, 1, __ATOMIC_ACQ_REL)) atexit(mark_exiting);
+    return inst;
+}
+
+static void free_saved_state(SavedState *entry) {
+    if (entry->python_state) py.DecRef((PyObject *)entry->python_state);
+    if (entry->serialised) py.DecRef((PyObject *)entry->serialised);
+}
+
+void fmi2FreeInstance(fmi2Component c) {
+    Instance *inst = (Instance *)c;
+    if (inst == NULL) return;
+    if (python_usable()) { /* else the Python objects are left to the ending process */
+        PyGILState_STATE gil = py.GILStateEnsure();
+        for (size_t k = 0; k < inst->states.n; k++) free_saved_state(&inst->states.items[k]);
+        slave_release(inst);
+        py.GILStateRelease(gil);
+    }
+    free_instance_memory(inst);
+}
+
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t n, const fmi2String categories[]) {
+    Instance *inst = allowed(c, CALL_fmi2SetDebugLogging);
+    if (inst == NULL) return fmi2Error;
+    if (n > 0 && categories == NULL) return refuse(inst, CALL_fmi2SetDebugLogging, "categories is NULL");
+    for (size_t k = 0; k < n; k++)
+        if (categories[k] == NULL) return refuse(inst, CALL_fmi2SetDebugLogging, "a category is NULL");
+    char **copy = n ? calloc(n, sizeof *copy) : NULL;
+    for (size_t k = 0; copy != NULL && k < n; k++) copy[k] = strdup(categories[k]);
+    for (size_t k = 0; k < inst->n_categories; k++) free(inst->categories[k]);
+    free(inst->categories);
+    inst->categories = copy;
+    inst->n_categories = copy ? n : 0;
+    inst->logging_on = loggingOn == fmi2True;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance, fmi2Real startTime,
+                               fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+    Frame f;
+    Instance *inst = begin(c, CALL_fmi2SetupExperiment, &f);
+    if (inst == NULL) return fmi2Error;
+    PyObject *stop = stopTimeDefined ? py.FloatFromDouble(stopTime) : NULL;
+    PyObject *tol = toleranceDefined ? py.FloatFromDouble(tolerance) : NULL;
+    PyObject *r = py.CallMethod(inst->slave, "setup_experiment", "(dOO)", startTime, stop ? stop : py.None,
+                                tol ? tol : py.None);
+    if (stop) py.DecRef(stop);
+    if (tol) py.DecRef(tol);
+    fmi2Status status = slave_settle(inst, "fmi2SetupExperiment", r, fmi2OK);
+    if (status == fmi2OK && !inst->restored) inst->time = startTime;
+    return end(&f, status);
+}
+
+/* A call of a slave method without arguments; on fmi2OK the instance moves to `next`. */
+static fmi2Status simple_call(fmi2Component c, Call call, const char *method, MachineState next) {
+    Frame f;
+    Instance *inst = begin(c, call, &f);
+    if (inst == NULL) return fmi2Error;
+    fmi2Status status = slave_settle(inst, call_name(call), py.CallMethod(inst->slave, method, NULL), fmi2OK);
+    if (status == fmi2OK) inst->state = next;
+    return end(&f, status);
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
+    return simple_call(c, CALL_fmi2EnterInitializationMode, "enter_initialization_mode", STATE_INITIALIZATION_MODE);
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+    return simple_call(c, CALL_fmi2ExitInitializationMode, "exit_initialization_mode", STATE_STEP_COMPLETE);
+}
+
+fmi2Status fmi2Terminate(fmi2Component c) {
+    return simple_call(c, CALL_fmi2Terminate, "terminate", STATE_TERMINATED);
+}
+
+fmi2Status fmi2Reset(fmi2Component c) {
+    Frame f;
+    Instance *inst = begin(c, CALL_fmi2Reset, &f);
+    if (inst == NULL) return fmi2Error;
+    char why[2048];
+    fmi2Status status = fmi2OK;
+    if (slave_rebuild(inst, why, sizeof why) != 0) { /* the instance can only be freed now */
+        log_error(inst, "fmi2Reset failed: %s", why);
+        status = fmi2Error;
+    }
+    inst->state = STATE_INSTANTIATED;
+    inst->time = 0.0;
+    inst->restored = 0;
+    return end(&f, status);
+}
+
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
+    (void)noSetFMUStatePriorToCurrentPoint;
+    Frame f;
+    Instance *inst = begin(c, CALL_fmi2DoStep, &f);
+    if (inst == NULL) return fmi2Error;
+    PyObject *r = py.CallMethod(inst->slave, "do_step", "(dd)", t, h);
+    int done = r != NULL ? py.IsTrue(r) : 0;
+    if (done < 0) py.ErrClear();
+    fmi2Status status = slave_settle(inst, "fmi2DoStep", r, done == 1 ? fmi2OK : fmi2Discard);
+    if (status == fmi2OK) inst->time = t + h;
+    return end(&f, status);
+}
+
+fmi2Status fmi2CancelStep(fmi2Component c) {
+    allowed(c, CALL_fmi2CancelStep); /* never allowed: it logs why */
+    return fmi2Error;
+}
+
+/* ---------------------------------------------------------- variable access */
+
+typedef enum { REAL, INTEGER, BOOLEAN, STRING } Kind;
+
+/* Fill values[k] from the k-th item of the slave's answer list. */
+static int read_item(Kind kind, PyObject *item, void *values, size_t k) {
+    switch (kind) {
+    case REAL: ((fmi2Real *)values)[k] = py.FloatAsDouble(item); break;
+    case INTEGER: ((fmi2Integer *)values)[k] = (fmi2Integer)py.LongAsLong(item); break;
+    case BOOLEAN: ((fmi2Boolean *)values)[k] = py.IsTrue(item) == 1 ? fmi2True : fmi2False; break;
+    case STRING: ((fmi2String *)values)[k] = py.UnicodeAsUTF8(item); break;
+    }
+    return py.ErrOccurred() == NULL;
+}
+
+static fmi2Status get_values(fmi2Component c, Call call, const char *method, Kind kind, const fmi2ValueReference vr[],
+                             size_t n, void *values) {
+    Frame f;
+    Instance *inst = allowed(c, call);
+    if (inst == NULL) return fmi2Error;
+    if (n == 0) return fmi2OK;
+    if (vr == NULL || values == NULL) return refuse(inst, call, "the value reference or value array is NULL");
+    if (!enter_python(inst, call, &f)) return fmi2Error;
+    PyObject *list = references(vr, n);
+    PyObject *answer = list ? py.CallMethod(inst->slave, method, "(O)", list) : NULL;
+    if (list) py.DecRef(list);
+    fmi2Status status = fmi2OK;
+    if (answer != NULL && !error_pending()) {
+        int ok = py.ListSize(answer) == (Py_ssize_t)n;
+        for (size_t k = 0; ok && k < n; k++) ok = read_item(kind, py.ListGetItem(answer, (Py_ssize_t)k), values, k);
+        if (!ok) {
+            char text[2048] = "the answer is not a list of the right length";
+            if (py.ErrOccurred()) exception_message(text, sizeof text);
+            log_error(inst, "%s failed: the FMU's Python code gave no usable values (%s)", call_name(call), text);
+            status = fmi2Error;
+        } else if (kind == STRING) { /* the texts live as long as the list: kept until the next call */
+            if (inst->strings) py.DecRef(inst->strings);
+            inst->strings = answer;
+            py.IncRef(answer);
+        }
+    }
+    return end(&f, slave_settle(inst, call_name(call), answer, status));
+}
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]) {
+    return get_values(c, CALL_fmi2GetReal, "get_real", REAL, vr, n, v);
+}
+
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]) {
+    return get_values(c, CALL_fmi2GetInteger, "get_integer", INTEGER, vr, n, v);
+}
+
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]) {
+    return get_values(c, CALL_fmi2GetBoolean, "get_boolean", BOOLEAN, vr, n, v);
+}
+
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[]) {
+    return get_values(c, CALL_fmi2GetString, "get_string", STRING, vr, n, (void *)v);
+}
+
+/* The k-th value as a Python object (a new reference), or NULL. */
+static PyObject *value_object(Kind kind, const void *values, size_t k) {
+    switch (kind) {
+    case REAL: return py.FloatFromDouble(((const fmi2Real *)values)[k]);
+    case INTEGER: return py.LongFromLong(((const fmi2Integer *)values)[k]);
+    case BOOLEAN: return py.BoolFromLong(((const fmi2Boolean *)values)[k] != fmi2False);
+    case STRING: return py.UnicodeFromString(((const fmi2String *)values)[k]);
+    }
+    return NULL;
+}
+
+static fmi2Status set_values(fmi2Component c, Call call, const char *method, Kind kind, const fmi2ValueReference vr[],
+                             size_t n, const void *values) {
+    Frame f;
+    Instance *inst = allowed(c, call);
+    if (inst == NULL) return fmi2Error;
+    if (n == 0) return fmi2OK;
+    if (vr == NULL || values == NULL) return refuse(inst, call, "the value reference or value array is NULL");
+    for (size_t k = 0; kind == STRING && k < n; k++)
+        if (((const fmi2String *)values)[k] == NULL) return refuse(inst, call, "a string value is NULL");
+    if (!enter_python(inst, call, &f)) return fmi2Error;
+    PyObject *list = references(vr, n), *items = py.ListNew((Py_ssize_t)n);
+    for (size_t k = 0; items != NULL && k < n; k++) {
+        PyObject *item = value_object(kind, values, k);
+        if (item == NULL || py.ListSetItem(items, (Py_ssize_t)k, item) != 0) {
+            py.DecRef(items);
+            items = NULL;
+        }
+    }
+    PyObject *r = list && items ? py.CallMethod(inst->slave, method, "(OO)", list, items) : NULL;
+    if (list) py.DecRef(list);
+    if (items) py.DecRef(items);
+    return end(&f, slave_settle(inst, call_name(call), r, fmi2OK));
+}
+
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]) {
+    return set_values(c, CALL_fmi2SetReal, "set_real", REAL, vr, n, v);
+}
+
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]) {
+    return set_values(c, CALL_fmi2SetInteger, "set_integer", INTEGER, vr, n, v);
+}
+
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]) {
+    return set_values(c, CALL_fmi2SetBoolean, "set_boolean", BOOLEAN, vr, n, v);
+}
+
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]) {
+    return set_values(c, CALL_fmi2SetString, "set_string", STRING, vr, n, (const void *)v);
+}
+
+/* Functions the modelDescription says this FMU does not provide: refused in every state. */
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[], size_t nu,
+                                        const fmi2ValueReference z[], size_t nz, const fmi2Real dv[], fmi2Real dz[]) {
+    (void)u, (void)nu, (void)z, (void)nz, (void)dv, (void)dz;
+    allowed(c, CALL_fmi2GetDirectionalDerivative);
+    return fmi2Error;
+}
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                       const fmi2Integer order[], const fmi2Real value[]) {
+    (void)vr, (void)n, (void)order, (void)value;
+    allowed(c, CALL_fmi2SetRealInputDerivatives);
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                        const fmi2Integer order[], fmi2Real value[]) {
+    (void)vr, (void)n, (void)order, (void)value;
+    allowed(c, CALL_fmi2GetRealOutputDerivatives);
+    return fmi2Error;
+}
+
+/* --------------------------------------------------------- status functions */
+
+static const char *status_kind_name(fmi2StatusKind s) {
+    switch (s) {
+    case fmi2DoStepStatus: return "fmi2DoStepStatus";
+    case fmi2PendingStatus: return "fmi2PendingStatus";
+    case fmi2LastSuccessfulTime: return "fmi2LastSuccessfulTime";
+    case fmi2Terminated: return "fmi2Terminated";
+    }
+    return NULL;
+}
+
+/* The checks every status function makes; the instance, or NULL after fmi2Error was logged. */
+static Instance *status_call(fmi2Component c, Call call, fmi2StatusKind s, const void *value) {
+    Instance *inst = allowed(c, call);
+    if (inst == NULL) return NULL;
+    if (status_kind_name(s) == NULL) {
+        char why[128];
+        snprintf(why, sizeof why, "%d is not an fmi2StatusKind", (int)s);
+        refuse(inst, call, why);
+        return NULL;
+    }
+    if (value == NULL) {
+        refuse(inst, call, "the value pointer is NULL");
+        return NULL;
+    }
+    return inst;
+}
+
+/* No asynchronous step is ever pending: the standard's answer for a status a slave cannot give. */
+static fmi2Status no_such_status(Instance *inst, Call call, fmi2StatusKind s) {
+    char message[512];
+    snprintf(message, sizeof message, "%s(%s): this FMU has no such status (doStep is synchronous and never "
+             "pending; the statuses it gives are fmi2LastSuccessfulTime and fmi2Terminated)",
+             call_name(call), status_kind_name(s));
+    log_to_host(&inst->callbacks, inst->name, fmi2Discard, "logStatusDiscard", message);
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
+    Instance *inst = status_call(c, CALL_fmi2GetStatus, s, value);
+    return inst ? no_such_status(inst, CALL_fmi2GetStatus, s) : fmi2Error;
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
+    Instance *inst = status_call(c, CALL_fmi2GetRealStatus, s, value);
+    if (inst == NULL) return fmi2Error;
+    if (s != fmi2LastSuccessfulTime) return no_such_status(inst, CALL_fmi2GetRealStatus, s);
+    *value = inst->time;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
+    Instance *inst = status_call(c, CALL_fmi2GetIntegerStatus, s, value);
+    return inst ? no_such_status(inst, CALL_fmi2GetIntegerStatus, s) : fmi2Error;
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
+    Instance *inst = status_call(c, CALL_fmi2GetBooleanStatus, s, value);
+    if (inst == NULL) return fmi2Error;
+    if (s != fmi2Terminated) return no_such_status(inst, CALL_fmi2GetBooleanStatus, s);
+    *value = inst->state == STATE_TERMINATED ? fmi2True : fmi2False; /* a Discard can be retried */
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
+    Instance *inst = status_call(c, CALL_fmi2GetStringStatus, s, value);
+    return inst ? no_such_status(inst, CALL_fmi2GetStringStatus, s) : fmi2Error;
+}

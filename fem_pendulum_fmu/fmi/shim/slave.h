@@ -1,0 +1,55 @@
+/* One FMU instance and the calls into its Python slave object (slave.c). */
+#ifndef FEM_PENDULUM_SLAVE_H
+#define FEM_PENDULUM_SLAVE_H
+
+#include "python_api.h"
+
+#include "fmi2Functions.h"
+#include "fmu_states.h"
+#include "state_machine.h"
+
+typedef struct {
+    PyObject *slave;     /* the Python slave object; NULL when it could not be rebuilt at fmi2Reset */
+    PyObject *cls;       /* its class and keyword arguments, for fmi2Reset */
+    PyObject *kwargs;
+    PyObject *log_queue; /* the slave's list of pending log messages (pythonfmu's LogMsg) */
+    PyObject *strings;   /* the last fmi2GetString answer, whose texts the host may still read */
+    fmi2CallbackFunctions callbacks;
+    char *name;
+    MachineState state;
+    double time;         /* the FMU's time: start time, end of the last successful step, restored state's */
+    int restored;        /* an FMU state was set before initialisation: fmi2SetupExperiment keeps its time */
+    int logging_on;
+    char **categories;
+    size_t n_categories;
+    StateRegistry states;
+} Instance;
+
+/* Log through the host's logger (the message is passed as a format string with each '%' doubled). */
+void log_to_host(const fmi2CallbackFunctions *callbacks, const char *instance, fmi2Status status,
+                 const char *category, const char *message);
+void log_error(Instance *inst, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+/* With the GIL held: the slave class found in the entry module named in resources/slavemodule.txt,
+ * a new instance of it and its log queue filled in; 0 on success, else 1 with the reason in `why`. */
+int slave_create(Instance *inst, const char *resources, fmi2Boolean visible, char *why, size_t n);
+/* With the GIL held: a new slave object from the same class and arguments (fmi2Reset). */
+int slave_rebuild(Instance *inst, char *why, size_t n);
+/* With the GIL held: release() the slave if it has that method, and drop every Python reference. */
+void slave_release(Instance *inst);
+
+/* With the GIL held: the status of a call whose Python result is `result` (a new reference or NULL),
+ * after logging the pending exception, the slave's queued messages and an error it reported. */
+fmi2Status slave_settle(Instance *inst, const char *call, PyObject *result, fmi2Status ok);
+/* The text of the pending Python exception, cleared. */
+void exception_message(char *text, size_t n);
+/* The thread's error report from the slave (fem_pendulum_report_error), cleared; NULL if none. */
+const char *take_reported_error(void);
+void clear_reported_error(void);
+/* 1 when the slave has reported an error during the current call (not cleared). */
+int error_pending(void);
+
+/* Python lists of value references and values. */
+PyObject *references(const fmi2ValueReference vr[], size_t n);
+
+#endif

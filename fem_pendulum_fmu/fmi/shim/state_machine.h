@@ -1,0 +1,67 @@
+/* The FMI 2.0 co-simulation state machine as this project's FMUs implement it: which call is allowed
+ * in which state (the standard's section 4.2.4 table, restricted to the states these FMUs can be in).
+ *
+ * Not entered: stepFailed (a doStep that answers fmi2Discard leaves the model as at the start of the
+ * step, so the instance stays in stepComplete and may retry), stepInProgress and stepCanceled (doStep
+ * is synchronous and never answers fmi2Pending), error (a call answered fmi2Error changes nothing) and
+ * fatal (never answered). docs/fmu.md has the table in words. */
+#ifndef FEM_PENDULUM_STATE_MACHINE_H
+#define FEM_PENDULUM_STATE_MACHINE_H
+
+typedef enum {
+    STATE_INSTANTIATED = 1 << 0,
+    STATE_INITIALIZATION_MODE = 1 << 1,
+    STATE_STEP_COMPLETE = 1 << 2,
+    STATE_TERMINATED = 1 << 3,
+} MachineState;
+
+#define ANY_STATE (STATE_INSTANTIATED | STATE_INITIALIZATION_MODE | STATE_STEP_COMPLETE | STATE_TERMINATED)
+#define INITIALISED (STATE_INITIALIZATION_MODE | STATE_STEP_COMPLETE | STATE_TERMINATED)
+#define SETTABLE (STATE_INSTANTIATED | STATE_INITIALIZATION_MODE | STATE_STEP_COMPLETE)
+#define NO_STATE 0 /* a function this FMU does not provide: refused in every state */
+
+/* X(call, states in which it is allowed) */
+#define FMI2_CALLS(X)                                                     \
+    X(fmi2SetDebugLogging, ANY_STATE)                                     \
+    X(fmi2SetupExperiment, STATE_INSTANTIATED)                            \
+    X(fmi2EnterInitializationMode, STATE_INSTANTIATED)                    \
+    X(fmi2ExitInitializationMode, STATE_INITIALIZATION_MODE)              \
+    X(fmi2Terminate, STATE_STEP_COMPLETE)                                 \
+    X(fmi2Reset, ANY_STATE)                                               \
+    X(fmi2GetReal, INITIALISED)                                           \
+    X(fmi2GetInteger, INITIALISED)                                        \
+    X(fmi2GetBoolean, INITIALISED)                                        \
+    X(fmi2GetString, INITIALISED)                                         \
+    X(fmi2SetReal, SETTABLE)                                              \
+    X(fmi2SetInteger, SETTABLE)                                           \
+    X(fmi2SetBoolean, SETTABLE)                                           \
+    X(fmi2SetString, SETTABLE)                                            \
+    X(fmi2GetFMUstate, ANY_STATE)                                         \
+    X(fmi2SetFMUstate, ANY_STATE)                                         \
+    X(fmi2FreeFMUstate, ANY_STATE)                                        \
+    X(fmi2SerializedFMUstateSize, ANY_STATE)                              \
+    X(fmi2SerializeFMUstate, ANY_STATE)                                   \
+    X(fmi2DeSerializeFMUstate, ANY_STATE)                                 \
+    X(fmi2GetDirectionalDerivative, NO_STATE)                             \
+    X(fmi2SetRealInputDerivatives, NO_STATE)                              \
+    X(fmi2GetRealOutputDerivatives, NO_STATE)                             \
+    X(fmi2DoStep, STATE_STEP_COMPLETE)                                    \
+    X(fmi2CancelStep, NO_STATE)                                           \
+    X(fmi2GetStatus, STATE_STEP_COMPLETE | STATE_TERMINATED)              \
+    X(fmi2GetRealStatus, STATE_STEP_COMPLETE | STATE_TERMINATED)          \
+    X(fmi2GetIntegerStatus, STATE_STEP_COMPLETE | STATE_TERMINATED)       \
+    X(fmi2GetBooleanStatus, STATE_STEP_COMPLETE | STATE_TERMINATED)       \
+    X(fmi2GetStringStatus, STATE_STEP_COMPLETE | STATE_TERMINATED)
+
+#define AS_ENUM(call, states) CALL_##call,
+typedef enum { FMI2_CALLS(AS_ENUM) N_CALLS } Call;
+#undef AS_ENUM
+
+/* The states in which `call` is allowed (a mask of MachineState). */
+int allowed_states(Call call);
+const char *call_name(Call call);
+const char *state_name(MachineState state);
+/* "instantiated, initializationMode" or "no state (this FMU does not provide it)" */
+void describe_states(int mask, char *text, size_t n);
+
+#endif
