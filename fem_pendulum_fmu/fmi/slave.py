@@ -149,7 +149,8 @@ class PendulumSlave(Fmi2Slave):
         self.outputs: Outputs | None = None
         self.init_error: str | None = None
         self.broken: str | None = None  # set when the model raised something other than StepFailed
-        self.initialised = False
+        self.initialised = False  # a model is built (at exitInitializationMode, or from a restored state)
+        self.stepping = False  # exitInitializationMode succeeded: parameters are fixed from now on
         self.terminated = False
         self.time = self.interface.start_time
         self.init_seconds = math.nan
@@ -206,7 +207,7 @@ class PendulumSlave(Fmi2Slave):
         return getattr(self.outputs, field) if self.outputs is not None else 0
 
     def _set_parameter(self, name: str, value: Any) -> None:
-        if self.initialised and value != self.values[name]:
+        if self.stepping or (self.initialised and value != self.values[name]):
             self._error(
                 f"parameter {name} cannot be set after initialisation (value {value!r} ignored; "
                 f"it stays {self.values[name]!r})"
@@ -351,19 +352,23 @@ class PendulumSlave(Fmi2Slave):
         if self.model is not None:  # started from an FMU state (fmi2SetFMUstate after fmi2Instantiate)
             return
         t0 = time.perf_counter()
-        self.initialised = True
+        self.init_error = None
         with self._logging():
             try:
-                self.model = create(self.scene())
+                model = create(self.scene())
             except (ValueError, KeyError) as exc:
                 self.init_error = f"invalid parameters: {exc}"
-                self._error(self.init_error)
+                self._error(self.init_error + " (correct them and call fmi2ExitInitializationMode again)")
                 return
-            self.model.time = self.time
-            self.outputs = self.model.outputs()
+            model.time = self.time
+            self.model, self.outputs, self.initialised = model, model.outputs(), True
             self._start_field_output()
+            if self.init_error is not None:  # the field output's folder: back to before the call
+                self.model, self.outputs, self.initialised = None, None, False
+                return
+            self.stepping = True
             self.init_seconds = time.perf_counter() - t0
-            LOG.debug("initialised %s in %.3f s", type(self.model).__name__, self.init_seconds)
+            LOG.debug("initialised %s in %.3f s", type(model).__name__, self.init_seconds)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         if self.init_error is not None:
@@ -473,7 +478,7 @@ class PendulumSlave(Fmi2Slave):
         raised: an exception would be fmi2Fatal. Into an initialised instance only a state taken with
         the same parameters; into one not yet initialised any state of this FMU, whose parameters
         then build the model (the initialisation calls that follow keep it)."""
-        problem = state.get("error") or self._state_mismatch(state)
+        problem = self._state_mismatch(state)
         model = self.model
         if problem is None and state["model"] is not None:
             try:
@@ -519,14 +524,27 @@ class PendulumSlave(Fmi2Slave):
         )
         return buf.getvalue()
 
-    @staticmethod
-    def _fmu_state_from_bytes(data: bytes) -> dict[str, Any]:
-        """Never raises (that would be fmi2Fatal): corrupt bytes give {"error": ...}, refused by set."""
+    def _fmu_state_from_bytes(self, data: bytes) -> dict[str, Any] | None:
+        """The state the bytes hold, checked against this instance (the FMU's binary has already checked
+        its own header: format, version, GUID); None after reporting why they are refused."""
         try:
             with np.load(io.BytesIO(bytes(data)), allow_pickle=False) as npz:
                 head = json.loads(npz["head"].tobytes().decode())
                 model = npz["model"].tobytes()
             head["model"] = ModelState.from_bytes(model) if model else None
-            return head
+            problem = _state_shape_problem(head) or self._state_mismatch(head)
         except Exception as exc:
-            return {"error": f"corrupt serialised FMU state ({type(exc).__name__}: {exc})"}
+            problem = f"the bytes are not a serialised state of this FMU ({type(exc).__name__}: {exc})"
+        if problem is not None:
+            self._error(f"fmi2DeSerializeFMUstate refused, nothing was changed: {problem}")
+            return None
+        return head
+
+
+def _state_shape_problem(head: Any) -> str | None:
+    """Why a decoded state head is not one this slave writes (keys and types), or None."""
+    if not isinstance(head, dict) or set(head) != {"torque", "values", "initialised", "model"}:
+        return "its contents are not those of a state of this FMU"
+    if not isinstance(head["values"], dict) or not isinstance(head["torque"], (int, float)):
+        return "its parameter values or torque are malformed"
+    return None
