@@ -5,7 +5,7 @@
 The floor is a trivial pythonfmu slave with the same inputs, parameters and
 Real outputs as FemPendulum (read from modelDescription.template.xml through
 fem_pendulum_fmu/fmi/interface.py), whose doStep only adds torque x step to
-one output. It is built into a temporary folder with the same front binary
+one output. It is built into a temporary folder with the same binary
 (fmi/shim/) as FemPendulum, so both go through the same native calls. Both
 FMUs are then driven alike by fmpy's FMU2Slave, each run in a fresh process:
 the stiff scene released at theta0 (20 degrees), 1 ms communication steps,
@@ -23,8 +23,8 @@ counts instead what the load cannot change: each FMU runs the same calls once
 under valgrind's callgrind, collected in the stepping loop only (run inside
 functools.reduce, callgrind's --toggle-collect); printed per doStep are the
 instructions of the whole loop (fmpy's side included) and of those inside the
-FMU's fmi2DoStep, fmi2SetReal and fmi2GetReal (inclusive, the *_core.so
-entries: pythonfmu and the slave's Python), with the whole loop's ratio.
+FMU's fmi2DoStep, fmi2SetReal and fmi2GetReal (inclusive, the entries of
+the FMU's binaries/linux64/*.so: the binary and the slave's Python), with the whole loop's ratio.
 """
 
 from __future__ import annotations
@@ -132,7 +132,7 @@ def variables() -> list[tuple]:
 
 
 def build_floor(folder: Path) -> Path:
-    """Build the trivial FMU in `folder`, with the same front binary as FemPendulum."""
+    """Build the trivial FMU in `folder`, with the same binary as FemPendulum."""
     from pythonfmu.builder import FmuBuilder
 
     from fem_pendulum_fmu.fmi.builder import finish_fmu, shim_resources
@@ -158,7 +158,7 @@ def run(fmu: Path, identifier: str, stop: float, step: float, integers: dict[str
 
 
 CALLS = ("fmi2DoStep", "fmi2SetReal", "fmi2GetReal")
-ANNOTATED = re.compile(r"\s*([\d,]+) .*:(fmi2\w+) \[.*_core\.so\]")
+ANNOTATED = re.compile(r"\s*([\d,]+) .*:(fmi2\w+) \[.*/binaries/linux64/[^/\]]*\.so\]")
 
 
 def count_instructions(fmu: Path, identifier: str, stop: float, step: float, integers: dict[str, int]) -> dict:

@@ -1,6 +1,6 @@
 """A native C host (examples/c_host/fmi2_host.c) runs the FMU with no environment variables at all.
 
-The FMU's front binary (fem_pendulum_fmu/fmi/shim) starts the Python recorded
+The FMU's binary (fem_pendulum_fmu/fmi/shim) starts the Python recorded
 at build time; the host loads, steps, saves and restores a state, frees the
 instance, unloads the library and exits with 0 (docs/fmu.md says what crashed
 here before).
@@ -39,7 +39,7 @@ def host(fmus, tmp_path_factory) -> list[str]:
     folder = tmp_path_factory.mktemp("c_host")
     binary = folder / "fmi2_host"
     compiler = shutil.which("cc") or shutil.which("gcc")
-    assert compiler, "a C compiler is needed for the FMU's front binary and this host"
+    assert compiler, "a C compiler is needed for the FMU's binary and this host"
     subprocess.run(
         [
             compiler,
