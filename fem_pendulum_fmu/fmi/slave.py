@@ -1,13 +1,13 @@
-"""The FMI 2.0 co-simulation slave: glue between pythonfmu and a model, no physics.
+"""The FMI 2.0 co-simulation slave: glue between the FMU's binary and a model, no physics.
 
 Variables are registered from the template (interface.py), so the
-modelDescription and the slave cannot drift. pythonfmu 0.7.0 turns every
-Python exception into fmi2Fatal (and a fatal instance may take the host down
-on its next call), so nothing here raises into the host. Refused input is
-reported to the FMU's front binary (shim/), which makes that FMI call answer
-fmi2Error and logs the message; the state is left unchanged. A step the
-model cannot complete answers fmi2Discard. The FMU's entry script subclasses
-`PendulumSlave` (see femp_slave_entry.py).
+modelDescription and the slave cannot drift. The FMU's binary (shim/) calls
+the methods of pythonfmu's Fmi2Slave interface and turns any exception into
+fmi2Error, but the slave still raises nothing a host can cause: refused input
+is reported to the binary (fem_pendulum_report_error, through ctypes), which
+makes that FMI call answer fmi2Error and logs the message; the state is left
+unchanged. A step the model cannot complete answers fmi2Discard. The FMU's
+entry script subclasses `PendulumSlave` (see femp_slave_entry.py).
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ import logging
 import math
 import operator
 import time
+import weakref
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -63,47 +64,65 @@ _TIME_TOL = 1e-9
 _READER_CACHE = 64  # value-reference lists whose validation get_real / set_real remember, per instance
 
 
-_REPORTERS: dict[str | None, Callable[[bytes], Any] | None] = {}
+def _error_reporter(resources: str | None) -> tuple[int, Callable[[bytes], Any]] | None:
+    """fem_pendulum_report_error of the FMU's binary (binaries/linux64/FemPendulum.so), if present, with
+    the handle of the library opened to find it (the slave closes it in release()).
+
+    The binary (shim/) turns the call during which the slave reports an error into
+    fmi2Error and logs the message whether or not debug logging is on; without it
+    (pythonfmu's binary: Windows) the message is only queued. Each instance looks it up
+    for itself, at its first report: a table kept per resources folder grew by an entry
+    and kept a deleted library loaded for every run of fmpy's simulate_fmu, which
+    extracts the FMU into a new folder each time."""
+    if not resources:
+        return None
+    import ctypes
+    from pathlib import Path
+
+    binary = Path(resources).parent / "binaries" / "linux64" / "FemPendulum.so"
+    if not binary.is_file():
+        return None
+    try:
+        library = ctypes.CDLL(str(binary))
+    except OSError:
+        return None
+    try:
+        report = library.fem_pendulum_report_error
+    except AttributeError:  # another binary (pythonfmu's alone): nothing to report to
+        _close_library(library._handle)
+        return None
+    report.argtypes = [ctypes.c_char_p]
+    return library._handle, report
 
 
-def _error_reporter(resources: str | None) -> Callable[[bytes], Any] | None:
-    """fem_pendulum_report_error of the FMU's front binary (binaries/linux64/FemPendulum.so), if present.
+def _close_library(handle: int) -> None:
+    """dlclose a library opened by ctypes (which never closes one itself); the host's own handle keeps it loaded."""
+    import _ctypes
 
-    pythonfmu alone can only answer OK, Discard or Fatal; the front binary (shim/)
-    turns the call during which the slave reports an error into fmi2Error and
-    logs the message whether or not debug logging is on."""
-    if resources not in _REPORTERS:
-        _REPORTERS[resources] = None
-        if resources:
-            import ctypes
-            from pathlib import Path
-
-            binary = Path(resources).parent / "binaries" / "linux64" / "FemPendulum.so"
-            if binary.is_file():
-                try:
-                    report = ctypes.CDLL(str(binary)).fem_pendulum_report_error
-                    report.argtypes = [ctypes.c_char_p]
-                    _REPORTERS[resources] = report
-                except (OSError, AttributeError):
-                    pass
-    return _REPORTERS[resources]
+    _ctypes.dlclose(handle)
 
 
 class _FmiLogHandler(logging.Handler):
-    """Forwards the package's Python log records to one instance's FMI logger."""
+    """Forwards the package's Python log records to one instance's FMI logger.
+
+    It holds the instance weakly: the instance holds its handler, and a cycle would leave a freed
+    instance (and its model) to the garbage collector instead of freeing it at once."""
 
     def __init__(self, slave: PendulumSlave) -> None:
         super().__init__(logging.DEBUG)
-        self.slave = slave
+        self.slave = weakref.ref(slave)
 
     def emit(self, record: logging.LogRecord) -> None:
+        slave = self.slave()
+        if slave is None:
+            return
         if record.levelno >= logging.ERROR:
             status = Fmi2Status.error
         elif record.levelno >= logging.WARNING:
             status = Fmi2Status.warning
         else:
             status = Fmi2Status.ok
-        self.slave.log(record.getMessage(), status, None if status != Fmi2Status.ok else "logAll")
+        slave.log(record.getMessage(), status, None if status != Fmi2Status.ok else "logAll")
 
 
 class _LogRouter(logging.Handler):
@@ -168,16 +187,21 @@ class PendulumSlave(Fmi2Slave):
         name = var.name
         getter: Callable[[], Any]
         setter: Callable[[Any], None] | None
+        # the accessors reach this instance through a weak proxy: bound methods, which self.vars keeps,
+        # would make cycles that leave a freed instance and its model to the garbage collector's full
+        # pass (tests/test_fmu_memory.py); the proxy costs the torque's setter 45 ns a call
+        me: Any = weakref.proxy(self)  # typeshed calls it a CallableProxyType, not a PendulumSlave
+        kind = type(self)
         if var.causality == "parameter":
             self.values[name] = var.start
-            getter = functools.partial(self._get_parameter, name)
-            setter = functools.partial(self._set_parameter, name)
+            getter = functools.partial(kind._get_parameter, me, name)
+            setter = functools.partial(kind._set_parameter, me, name)
         elif var.causality == "input":
             self.torque = float(var.start or 0.0)
-            getter = self._get_torque
-            setter = self._set_torque
+            getter = functools.partial(kind._get_torque, me)
+            setter = functools.partial(kind._set_torque, me)
         else:
-            getter = functools.partial(self._get_output, OUTPUT_FIELDS[name])
+            getter = functools.partial(kind._get_output, me, OUTPUT_FIELDS[name])
             setter = None
         cls = _PY_TYPES[var.type]
         kwargs = dict(
@@ -220,11 +244,16 @@ class PendulumSlave(Fmi2Slave):
 
     def _error(self, msg: str) -> None:
         """Make the FMI call in progress answer fmi2Error and log `msg` with status error (see shim/)."""
-        report = _error_reporter(self.resources)
-        if report is not None:
-            report(msg.encode("utf-8", "replace"))
+        reporter = self._reporter
+        if reporter is not None:
+            reporter[1](msg.encode("utf-8", "replace"))
         else:
             self.log(msg, Fmi2Status.error)
+
+    @functools.cached_property
+    def _reporter(self) -> tuple[int, Callable[[bytes], Any]] | None:
+        """The binary's error report and its library handle (_error_reporter), looked up at the first report."""
+        return _error_reporter(self.resources)
 
     # ------------------------------------------------- guarded variable access
     # pythonfmu raises (fmi2Fatal) on an unknown value reference, a variable of another type or
@@ -539,6 +568,26 @@ class PendulumSlave(Fmi2Slave):
             self._error(f"fmi2DeSerializeFMUstate refused, nothing was changed: {problem}")
             return None
         return head
+
+    # ------------------------------------------------------------------ release
+    def release(self) -> None:
+        """Let go at once of what this instance holds: the model (its NGSolve mesh, spaces, matrices and
+        factorisations), its outputs, the field output, the remembered value-reference lists, and the
+        library handle of the binary's error report. The FMU's binary calls this at fmi2FreeInstance and
+        fmi2Reset, then drops the instance; the model goes even if something else still holds the
+        instance (tests/test_fmu_memory.py). Afterwards doStep refuses, as before initialisation. Raises
+        nothing."""
+        self.model = None
+        self.outputs = None
+        self.vtk = None
+        self._real_readers.clear()
+        self._real_setters.clear()
+        reporter = self.__dict__.pop("_reporter", None)
+        if reporter is not None:
+            try:
+                _close_library(reporter[0])
+            except OSError as exc:  # dlclose refused: the handle stays open, nothing else is lost
+                LOG.debug("release: the binary's library handle was not closed (%s)", exc)
 
 
 def _state_shape_problem(head: Any) -> str | None:

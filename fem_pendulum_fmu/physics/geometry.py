@@ -8,6 +8,7 @@ edges, clamped). Material names: "pendulum" and "wall".
 
 from __future__ import annotations
 
+from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -50,6 +51,7 @@ def wall_shape(block: WallBlock) -> TopoDS_Shape:
     return wall
 
 
+@lru_cache(maxsize=8)
 def make_geometry(
     geo: PendulumGeometry,
     block: WallBlock | None = None,
@@ -57,7 +59,11 @@ def make_geometry(
     wall_face_size: float | None = None,
     refine_like_seed: bool = False,
 ) -> OCCGeometry:
-    """OCC geometry of the pendulum, and of the wall block when `block` is given."""
+    """OCC geometry of the pendulum, and of the wall block when `block` is given.
+
+    Made once per set of arguments and process (the last 8 kept), shared by the meshes curved on it:
+    netgen keeps the names and mesh sizes of every shape it has made in a table of its own, which the
+    shape's boolean operations grew by 19 kB each time, never shrinking (tests/test_fmu_memory.py)."""
     body = pendulum_shape(geo, refine_like_seed)
     if head_edge_size is not None:
         body.edges["head"].maxh = head_edge_size

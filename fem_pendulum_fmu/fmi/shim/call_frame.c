@@ -31,9 +31,10 @@ Instance *allowed(fmi2Component c, Call call) {
 /* Takes the GIL for a call into the slave; 0 after logging why Python cannot be called. */
 int enter_python(Instance *inst, Call call, Frame *frame) {
     if (inst->slave == NULL || !python_usable()) {
-        log_error(inst, "%s refused: %s", call_name(call),
-                  inst->slave == NULL ? "the instance has no Python slave (fmi2Reset could not rebuild it); free it"
-                                      : "the process is exiting or its Python has been finalised");
+        const char *why = inst->slave == NULL
+                              ? "the instance has no Python slave (fmi2Reset could not rebuild it): reset or free it"
+                              : "the process is exiting or its Python has been finalised";
+        log_error(inst, "%s refused: %s", call_name(call), why);
         return 0;
     }
     frame->gil = py.GILStateEnsure();

@@ -193,19 +193,21 @@ fmi2Status fmi2Terminate(fmi2Component c) {
 }
 
 fmi2Status fmi2Reset(fmi2Component c) {
-    Frame f;
-    Instance *inst = begin(c, CALL_fmi2Reset, &f);
+    Instance *inst = allowed(c, CALL_fmi2Reset);
     if (inst == NULL) return fmi2Error;
+    if (!python_usable()) return refuse(inst, CALL_fmi2Reset, "the process is exiting or its Python is finalised");
+    PyGILState_STATE gil = py.GILStateEnsure(); /* also when an earlier reset left no slave: try again */
     char why[2048];
     fmi2Status status = fmi2OK;
-    if (slave_rebuild(inst, why, sizeof why) != 0) { /* the instance can only be freed now */
+    if (slave_rebuild(inst, why, sizeof why) != 0) { /* the instance can only be freed, or reset again */
         log_error(inst, "fmi2Reset failed: %s", why);
         status = fmi2Error;
     }
     inst->state = STATE_INSTANTIATED;
     inst->time = 0.0;
     inst->restored = 0;
-    return end(&f, status);
+    py.GILStateRelease(gil);
+    return status;
 }
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetFMUStatePriorToCurrentPoint) {

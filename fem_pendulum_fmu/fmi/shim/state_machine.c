@@ -29,7 +29,7 @@ void describe_states(int mask, char *text, size_t n) {
                                        STATE_TERMINATED};
     size_t k = 0;
     text[0] = '\0';
-    for (size_t s = 0; s < sizeof all / sizeof all[0]; s++)
-        if (mask & all[s]) k += (size_t)snprintf(text + k, k < n ? n - k : 0, "%s%s", k ? ", " : "", state_name(all[s]));
+    for (size_t s = 0; s < sizeof all / sizeof all[0] && k < n; s++)
+        if (mask & all[s]) k += (size_t)snprintf(text + k, n - k, "%s%s", k ? ", " : "", state_name(all[s]));
     if (k == 0) snprintf(text, n, "no state: this FMU does not provide it (see modelDescription.xml)");
 }

@@ -18,7 +18,10 @@ Step sizes come from stepping.py (or seed_stepping.py for the seed's schemes).
 from __future__ import annotations
 
 import math
+import weakref
+from collections.abc import Callable
 from contextlib import nullcontext
+from typing import ParamSpec, TypeVar
 
 import ngsolve as ngs
 import numpy as np
@@ -48,6 +51,26 @@ from .fem_space import FemState, fem_space
 # increment's 6th power; a crushing rubber hinge otherwise gained 15 % in 0.3 ms (docs/robustness.md).
 STEP_ENERGY_TOLERANCE = 1e-3
 
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+def _weakly(method: Callable[_P, _R]) -> Callable[_P, _R]:
+    """A bound method of the model called through a weak reference to the model. The Newton solver the
+    model owns keeps its callbacks (the model's `_load` and `_guess`) this way: bound methods would make
+    a reference cycle model -> solver -> method -> model, which only the garbage collector's full pass
+    frees, so that every model dropped (an FMU instance freed) kept its mesh, spaces and matrices, about
+    a megabyte, until then (tests/test_fmu_memory.py). About 0.2 us a call, once per Newton solve."""
+    ref = weakref.WeakMethod(method)
+
+    def call(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+        bound = ref()
+        if bound is None:
+            raise ReferenceError("the FE model this solver belonged to is gone")
+        return bound(*args, **kwargs)
+
+    return call
+
 
 class FemModel:
     """The full-fidelity model (fidelity "fem")."""
@@ -71,7 +94,7 @@ class FemModel:
         inertia = None if split is None else (split.linear.mass, split.linear.inertia_coefficient)
         # the compiled Jacobian where the contact is the rigid wall's (or none); the meshed wall's is NGSolve's
         tangent = None if split is None or self.form.wall_residual is not None else split.jacobian
-        args = (self._load, self.head.active_elements, turn, self._guess, inertia, tangent)
+        args = (_weakly(self._load), self.head.active_elements, turn, _weakly(self._guess), inertia, tangent)
         self.newton = HeldJacobianNewton(self.form.form, residual, self.space, *args)
         self.time = 0.0
         self._state = self.scheme.start(self, self._initial_state())
