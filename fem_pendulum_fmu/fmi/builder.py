@@ -24,13 +24,14 @@ import zipfile
 from importlib import metadata
 from pathlib import Path
 
+from .binary_config import capability_defines, variables_header
 from .host_env import python_environment
 from .interface import TEMPLATE_NAME, render
 
 FMI_DIR = Path(__file__).resolve().parent
 PACKAGE_DIR = FMI_DIR.parent
-SHIM_SOURCES = ("fmi2_functions.c", "fmi2_states.c", "call_frame.c", "slave.c", "state_machine.c", "fmu_states.c",
-                "python_runtime.c")
+SHIM_SOURCES = ("fmi2_functions.c", "fmi2_states.c", "call_frame.c", "slave.c", "state_machine.c", "variables.c",
+                "fmu_states.c", "python_runtime.c")
 # what the pendulum FMU imports at run time besides pythonfmu, which pythonfmu ships in every FMU's
 # resources (fmpy and the masters' packages are not among them)
 PENDULUM_REQUIREMENTS = ("ngsolve", "numpy", "scipy")
@@ -54,24 +55,6 @@ def python_environment_txt() -> str:
     return "".join(f"{key}={value}\n" for key, value in python_environment().items())
 
 
-def capability_defines(model_description: str) -> list[str]:
-    """The compiler's -D flags that tell the binary its FMU: the GUID and the FMU state capabilities."""
-    from xml.etree import ElementTree
-
-    root = ElementTree.fromstring(model_description)
-    cosim = root.find("CoSimulation")
-    flags = cosim.attrib if cosim is not None else {}
-
-    def on(name: str) -> int:
-        return int(flags.get(name, "false") == "true")
-
-    return [
-        f'-DFMU_GUID="{root.attrib["guid"]}"',
-        f"-DFMU_CAN_GET_SET_STATE={on('canGetAndSetFMUstate')}",
-        f"-DFMU_CAN_SERIALIZE_STATE={on('canSerializeFMUstate')}",
-    ]
-
-
 def compile_shim(output: Path, model_description: str) -> bool:
     """Compile the FMU's binary (shim/) to `output`; False where there is no compiler or headers."""
     import fmpy
@@ -81,6 +64,9 @@ def compile_shim(output: Path, model_description: str) -> bool:
     if not sys.platform.startswith("linux") or compiler is None or not (include / "Python.h").is_file():
         return False
     sources = [str(FMI_DIR / "shim" / name) for name in SHIM_SOURCES]
+    generated = output.parent / "generated"
+    generated.mkdir(exist_ok=True)
+    (generated / "fmu_variables.h").write_text(variables_header(model_description))
     subprocess.run(
         [
             compiler,
@@ -91,6 +77,7 @@ def compile_shim(output: Path, model_description: str) -> bool:
             f"-I{Path(fmpy.__file__).parent / 'c-code'}",
             f"-I{include}",
             f"-I{FMI_DIR / 'shim'}",
+            f"-I{generated}",
             *capability_defines(model_description),
             *sources,
             "-ldl",

@@ -19,6 +19,7 @@
 #include "call_frame.h"
 #include "slave.h"
 #include "state_machine.h"
+#include "variables.h"
 
 #ifndef FMU_GUID
 #error "FMU_GUID must be defined (fem_pendulum_fmu/fmi/builder.py)"
@@ -230,15 +231,13 @@ fmi2Status fmi2CancelStep(fmi2Component c) {
 
 /* ---------------------------------------------------------- variable access */
 
-typedef enum { REAL, INTEGER, BOOLEAN, STRING } Kind;
-
 /* Fill values[k] from the k-th item of the slave's answer list. */
 static int read_item(Kind kind, PyObject *item, void *values, size_t k) {
     switch (kind) {
-    case REAL: ((fmi2Real *)values)[k] = py.FloatAsDouble(item); break;
-    case INTEGER: ((fmi2Integer *)values)[k] = (fmi2Integer)py.LongAsLong(item); break;
-    case BOOLEAN: ((fmi2Boolean *)values)[k] = py.IsTrue(item) == 1 ? fmi2True : fmi2False; break;
-    case STRING: ((fmi2String *)values)[k] = py.UnicodeAsUTF8(item); break;
+    case KIND_REAL: ((fmi2Real *)values)[k] = py.FloatAsDouble(item); break;
+    case KIND_INTEGER: ((fmi2Integer *)values)[k] = (fmi2Integer)py.LongAsLong(item); break;
+    case KIND_BOOLEAN: ((fmi2Boolean *)values)[k] = py.IsTrue(item) == 1 ? fmi2True : fmi2False; break;
+    case KIND_STRING: ((fmi2String *)values)[k] = py.UnicodeAsUTF8(item); break;
     }
     return py.ErrOccurred() == NULL;
 }
@@ -250,6 +249,9 @@ static fmi2Status get_values(fmi2Component c, Call call, const char *method, Kin
     if (inst == NULL) return fmi2Error;
     if (n == 0) return fmi2OK;
     if (vr == NULL || values == NULL) return refuse(inst, call, "the value reference or value array is NULL");
+    char why[512];
+    const char *bad = variables_problem(vr, n, kind, 0, inst->state, why, sizeof why);
+    if (bad != NULL) return refuse(inst, call, bad);
     if (!enter_python(inst, call, &f)) return fmi2Error;
     PyObject *list = references(vr, n);
     PyObject *answer = list ? py.CallMethod(inst->slave, method, "(O)", list) : NULL;
@@ -263,7 +265,7 @@ static fmi2Status get_values(fmi2Component c, Call call, const char *method, Kin
             if (py.ErrOccurred()) exception_message(text, sizeof text);
             log_error(inst, "%s failed: the FMU's Python code gave no usable values (%s)", call_name(call), text);
             status = fmi2Error;
-        } else if (kind == STRING) { /* the texts live as long as the list: kept until the next call */
+        } else if (kind == KIND_STRING) { /* the texts live as long as the list: kept until the next call */
             if (inst->strings) py.DecRef(inst->strings);
             inst->strings = answer;
             py.IncRef(answer);
@@ -273,28 +275,28 @@ static fmi2Status get_values(fmi2Component c, Call call, const char *method, Kin
 }
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]) {
-    return get_values(c, CALL_fmi2GetReal, "get_real", REAL, vr, n, v);
+    return get_values(c, CALL_fmi2GetReal, "get_real", KIND_REAL, vr, n, v);
 }
 
 fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]) {
-    return get_values(c, CALL_fmi2GetInteger, "get_integer", INTEGER, vr, n, v);
+    return get_values(c, CALL_fmi2GetInteger, "get_integer", KIND_INTEGER, vr, n, v);
 }
 
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]) {
-    return get_values(c, CALL_fmi2GetBoolean, "get_boolean", BOOLEAN, vr, n, v);
+    return get_values(c, CALL_fmi2GetBoolean, "get_boolean", KIND_BOOLEAN, vr, n, v);
 }
 
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[]) {
-    return get_values(c, CALL_fmi2GetString, "get_string", STRING, vr, n, (void *)v);
+    return get_values(c, CALL_fmi2GetString, "get_string", KIND_STRING, vr, n, (void *)v);
 }
 
 /* The k-th value as a Python object (a new reference), or NULL. */
 static PyObject *value_object(Kind kind, const void *values, size_t k) {
     switch (kind) {
-    case REAL: return py.FloatFromDouble(((const fmi2Real *)values)[k]);
-    case INTEGER: return py.LongFromLong(((const fmi2Integer *)values)[k]);
-    case BOOLEAN: return py.BoolFromLong(((const fmi2Boolean *)values)[k] != fmi2False);
-    case STRING: return py.UnicodeFromString(((const fmi2String *)values)[k]);
+    case KIND_REAL: return py.FloatFromDouble(((const fmi2Real *)values)[k]);
+    case KIND_INTEGER: return py.LongFromLong(((const fmi2Integer *)values)[k]);
+    case KIND_BOOLEAN: return py.BoolFromLong(((const fmi2Boolean *)values)[k] != fmi2False);
+    case KIND_STRING: return py.UnicodeFromString(((const fmi2String *)values)[k]);
     }
     return NULL;
 }
@@ -306,8 +308,11 @@ static fmi2Status set_values(fmi2Component c, Call call, const char *method, Kin
     if (inst == NULL) return fmi2Error;
     if (n == 0) return fmi2OK;
     if (vr == NULL || values == NULL) return refuse(inst, call, "the value reference or value array is NULL");
-    for (size_t k = 0; kind == STRING && k < n; k++)
+    for (size_t k = 0; kind == KIND_STRING && k < n; k++)
         if (((const fmi2String *)values)[k] == NULL) return refuse(inst, call, "a string value is NULL");
+    char why[512];
+    const char *bad = variables_problem(vr, n, kind, 1, inst->state, why, sizeof why);
+    if (bad != NULL) return refuse(inst, call, bad);
     if (!enter_python(inst, call, &f)) return fmi2Error;
     PyObject *list = references(vr, n), *items = py.ListNew((Py_ssize_t)n);
     for (size_t k = 0; items != NULL && k < n; k++) {
@@ -324,19 +329,19 @@ static fmi2Status set_values(fmi2Component c, Call call, const char *method, Kin
 }
 
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]) {
-    return set_values(c, CALL_fmi2SetReal, "set_real", REAL, vr, n, v);
+    return set_values(c, CALL_fmi2SetReal, "set_real", KIND_REAL, vr, n, v);
 }
 
 fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]) {
-    return set_values(c, CALL_fmi2SetInteger, "set_integer", INTEGER, vr, n, v);
+    return set_values(c, CALL_fmi2SetInteger, "set_integer", KIND_INTEGER, vr, n, v);
 }
 
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]) {
-    return set_values(c, CALL_fmi2SetBoolean, "set_boolean", BOOLEAN, vr, n, v);
+    return set_values(c, CALL_fmi2SetBoolean, "set_boolean", KIND_BOOLEAN, vr, n, v);
 }
 
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]) {
-    return set_values(c, CALL_fmi2SetString, "set_string", STRING, vr, n, (const void *)v);
+    return set_values(c, CALL_fmi2SetString, "set_string", KIND_STRING, vr, n, (const void *)v);
 }
 
 /* Functions the modelDescription says this FMU does not provide: refused in every state. */

@@ -61,7 +61,8 @@ static void release_entry(SavedState *entry) {
 }
 
 /* Keep `object` (a new reference) as the state *s: in place when *s is a live state of this
- * instance (FMI 2.0: fmi2GetFMUstate into a state already handed out), else under a new handle. */
+ * instance (FMI 2.0: fmi2GetFMUstate into a state already handed out), else (*s is NULL, checked by
+ * target_problem) under a new handle. */
 static fmi2Status keep_state(Instance *inst, Call call, fmi2FMUstate *s, PyObject *object, PyObject *bytes,
                              double time) {
     SavedState *entry = registry_find(&inst->states, *s);
@@ -90,11 +91,21 @@ static Instance *state_call(fmi2Component c, Call call, int serialising) {
     return inst;
 }
 
+/* Why *s cannot receive a state, or NULL: FMI 2.0 wants NULL there (a new state) or a state this
+ * instance handed out (replaced in place); anything else is refused rather than overwritten. */
+static const char *target_problem(Instance *inst, fmi2FMUstate *s) {
+    if (s == NULL) return "the address of the state is NULL";
+    if (*s == NULL || registry_find(&inst->states, *s) != NULL) return NULL;
+    return is_handle(*s) ? "*FMUstate holds a state that was freed, or is another instance's (set it to NULL first)"
+                         : "*FMUstate is neither NULL nor a state of this instance (set it to NULL first)";
+}
+
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) {
     Frame f;
     Instance *inst = state_call(c, CALL_fmi2GetFMUstate, 0);
     if (inst == NULL) return fmi2Error;
-    if (s == NULL) return refuse(inst, CALL_fmi2GetFMUstate, "the address of the state is NULL");
+    const char *bad = target_problem(inst, s);
+    if (bad != NULL) return refuse(inst, CALL_fmi2GetFMUstate, bad);
     if (!enter_python(inst, CALL_fmi2GetFMUstate, &f)) return fmi2Error;
     PyObject *object = py.CallMethod(inst->slave, "_get_fmu_state", NULL);
     if (object) py.IncRef(object); /* slave_settle drops one reference */
@@ -240,11 +251,12 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size
     Frame f;
     Instance *inst = state_call(c, CALL_fmi2DeSerializeFMUstate, 1);
     if (inst == NULL) return fmi2Error;
-    if (s == NULL) return refuse(inst, CALL_fmi2DeSerializeFMUstate, "the address of the state is NULL");
+    const char *bad = target_problem(inst, s);
+    if (bad != NULL) return refuse(inst, CALL_fmi2DeSerializeFMUstate, bad);
     if (bytes == NULL && size > 0) return refuse(inst, CALL_fmi2DeSerializeFMUstate, "the bytes are NULL");
     Header header;
     char why[512];
-    const char *bad = bad_header(bytes, size, &header, why, sizeof why);
+    bad = bad_header(bytes, size, &header, why, sizeof why);
     if (bad != NULL) return refuse(inst, CALL_fmi2DeSerializeFMUstate, bad);
     if (!enter_python(inst, CALL_fmi2DeSerializeFMUstate, &f)) return fmi2Error;
     PyObject *payload = py.BytesFromStringAndSize((const char *)bytes + sizeof header, (Py_ssize_t)header.payload);

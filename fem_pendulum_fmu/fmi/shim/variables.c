@@ -1,0 +1,50 @@
+/* The checks of variables.h over the generated table. */
+#include <stdio.h>
+
+#include "variables.h"
+
+static const Variable variables[] = {
+#include "fmu_variables.h"
+};
+static const size_t n_variables = sizeof variables / sizeof variables[0];
+
+static const char *const kind_names[] = {"Real", "Integer", "Boolean", "String"};
+
+static const Variable *find(fmi2ValueReference vr, Kind kind) {
+    if (vr < n_variables && variables[vr].vr == vr && variables[vr].kind == kind) return &variables[vr]; /* dense */
+    for (size_t k = 0; k < n_variables; k++)
+        if (variables[k].vr == vr && variables[k].kind == kind) return &variables[k];
+    return NULL;
+}
+
+static const Variable *find_any(fmi2ValueReference vr) {
+    for (size_t k = 0; k < n_variables; k++)
+        if (variables[k].vr == vr) return &variables[k];
+    return NULL;
+}
+
+const char *variables_problem(const fmi2ValueReference vr[], size_t n, Kind kind, int setting, MachineState state,
+                              char *why, size_t size) {
+    for (size_t k = 0; k < n; k++) {
+        const Variable *var = find(vr[k], kind);
+        if (var == NULL) {
+            const Variable *other = find_any(vr[k]);
+            if (other == NULL)
+                snprintf(why, size, "value reference %u is no variable of this FMU (see modelDescription.xml)", vr[k]);
+            else
+                snprintf(why, size, "%s (value reference %u) is of type %s, not %s", other->name, vr[k],
+                         kind_names[other->kind], kind_names[kind]);
+            return why;
+        }
+        if (setting && !(var->settable & state)) {
+            if (var->settable == 0)
+                snprintf(why, size, "%s (value reference %u) is a %s variable and cannot be set", var->name, vr[k],
+                         var->causality);
+            else
+                snprintf(why, size, "%s (value reference %u) is a %s variable and cannot be set in state %s",
+                         var->name, vr[k], var->causality, state_name(state));
+            return why;
+        }
+    }
+    return NULL;
+}

@@ -1,0 +1,26 @@
+/* The FMU's variables as its modelDescription declares them (fmu_variables.h, generated at build time
+ * by fem_pendulum_fmu/fmi/binary_config.py): every Get/Set is checked against them before the slave
+ * is called, so that a wrong value reference, type or causality is refused alike for any slave. */
+#ifndef FEM_PENDULUM_VARIABLES_H
+#define FEM_PENDULUM_VARIABLES_H
+
+#include <stddef.h>
+
+#include "fmi2Functions.h"
+#include "state_machine.h"
+
+typedef enum { KIND_REAL, KIND_INTEGER, KIND_BOOLEAN, KIND_STRING } Kind;
+
+typedef struct {
+    fmi2ValueReference vr;
+    Kind kind;
+    const char *name;
+    const char *causality; /* "parameter (fixed)", for messages */
+    int settable;          /* the states in which a host may set it (MachineState mask) */
+} Variable;
+
+/* Why getting (setting = 0) or setting these variables of `kind` in `state` is refused, or NULL. */
+const char *variables_problem(const fmi2ValueReference vr[], size_t n, Kind kind, int setting, MachineState state,
+                              char *why, size_t size);
+
+#endif
