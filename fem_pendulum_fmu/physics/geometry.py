@@ -61,9 +61,10 @@ def make_geometry(
 ) -> OCCGeometry:
     """OCC geometry of the pendulum, and of the wall block when `block` is given.
 
-    Made once per set of arguments and process (the last 8 kept), shared by the meshes curved on it:
-    netgen keeps the names and mesh sizes of every shape it has made in a table of its own, which the
-    shape's boolean operations grew by 19 kB each time, never shrinking (tests/test_fmu_memory.py)."""
+    Made once per set of arguments and process (the last 8 kept) and shared by the meshes curved on it:
+    making the shape (its boolean operations and named edges) leaves about 19 kB that netgen or
+    OpenCascade never frees, which every FE model made again (tests/test_fmu_memory.py). The meshes
+    curved on a shared geometry are the same to the last bit."""
     body = pendulum_shape(geo, refine_like_seed)
     if head_edge_size is not None:
         body.edges["head"].maxh = head_edge_size

@@ -21,7 +21,8 @@ import math
 import weakref
 from collections.abc import Callable
 from contextlib import nullcontext
-from typing import ParamSpec, TypeVar
+from types import MethodType
+from typing import Any, cast
 
 import ngsolve as ngs
 import numpy as np
@@ -51,23 +52,22 @@ from .fem_space import FemState, fem_space
 # increment's 6th power; a crushing rubber hinge otherwise gained 15 % in 0.3 ms (docs/robustness.md).
 STEP_ENERGY_TOLERANCE = 1e-3
 
-_P = ParamSpec("_P")
-_R = TypeVar("_R")
 
+def _weakly(method: Callable[..., Any]) -> Callable[..., Any]:
+    """A bound method of the model, called through a weak reference to the model. The Newton solver the
+    model owns keeps its callbacks (the model's `_load` and `_guess`) this way: bound methods made a
+    reference cycle model -> solver -> method -> model, which only the garbage collector frees (in a
+    process holding NGSolve, rarely: its full pass), so that every model dropped (an FMU instance freed)
+    kept its mesh, spaces and matrices until then (tests/test_fmu_memory.py). 0.15 us more a call, one
+    call a Newton solve."""
+    bound = cast(MethodType, method)
+    ref, function = weakref.ref(bound.__self__), bound.__func__
 
-def _weakly(method: Callable[_P, _R]) -> Callable[_P, _R]:
-    """A bound method of the model called through a weak reference to the model. The Newton solver the
-    model owns keeps its callbacks (the model's `_load` and `_guess`) this way: bound methods would make
-    a reference cycle model -> solver -> method -> model, which only the garbage collector's full pass
-    frees, so that every model dropped (an FMU instance freed) kept its mesh, spaces and matrices, about
-    a megabyte, until then (tests/test_fmu_memory.py). About 0.2 us a call, once per Newton solve."""
-    ref = weakref.WeakMethod(method)
-
-    def call(*args: _P.args, **kwargs: _P.kwargs) -> _R:
-        bound = ref()
-        if bound is None:
+    def call(*args: Any) -> Any:
+        model = ref()
+        if model is None:
             raise ReferenceError("the FE model this solver belonged to is gone")
-        return bound(*args, **kwargs)
+        return function(model, *args)
 
     return call
 

@@ -159,7 +159,7 @@ def volume_rule(space: FemSpace, region: str) -> VolumeRule:
         ei = ngs.ElementId(el)
         fel, dofs = scalar.GetFE(ei), np.array(scalar.GetDofNrs(ei))
         # the mapped points made from the rule's MeshPoints belong to Python and are freed with it: a point
-        # made by trafo(x, y) is never freed (NGSolve hands it over by reference), 172 bytes each, 58 kB a
+        # made by trafo(x, y) is never freed (NGSolve hands it over by reference), about 170 bytes each, 58 kB a
         # model on the steel scene's default mesh (tests/test_fmu_memory.py); the numbers are the same
         for point, weight in zip(mesh.GetTrafo(ei)(rule), rule.weights, strict=True):
             mip = BaseMappedIntegrationPoint(point)

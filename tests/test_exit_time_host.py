@@ -1,0 +1,86 @@
+"""A Python host whose C library frees its FMU instances at exit, after the interpreter has been finalised.
+
+The host script (HOST) loads tests/exit_time_host.c, compiled here, through ctypes; the library instantiates,
+initialises and steps one instance of each FMU (FemPendulum with the rigid fidelity, PidController) and leaves
+them alive, and the script ends normally. Python is finalised first; then exit() runs the library's handler,
+which terminates and frees both instances, as a C/C++ library's exit-time destructors do: from an atexit()
+handler registered after the instances (it runs before the handlers the FMU binaries registered), one
+registered before them (it runs after), or the library's ELF destructor (after every atexit() handler). The FMU
+binary must answer without touching the finalised Python: fmi2Terminate fmi2Error, fmi2FreeInstance nothing
+(docs/fmu.md); the binary built from pythonfmu's had the process die of SIGSEGV in PyGILState_Ensure there, in
+every run. A run takes about a second.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import fmpy
+import pytest
+from fmpy import extract, read_model_description
+
+HERE = Path(__file__).resolve().parent
+RUNS = 5
+RIGID = 2  # model.fidelity item
+
+HOST = """
+import ctypes
+import sys
+
+library, mode, pendulum, pendulum_guid, pid, pid_guid, vr_fidelity, fidelity = sys.argv[1:]
+lib = ctypes.CDLL(library)
+lib.exit_time_host_start.argtypes = [ctypes.c_char_p] * 5 + [ctypes.c_int, ctypes.c_int]
+names = [a.encode() for a in (mode, pendulum, pendulum_guid, pid, pid_guid)]
+print("started", lib.exit_time_host_start(*names, int(vr_fidelity), int(fidelity)), flush=True)
+"""
+
+
+@pytest.fixture(scope="module")
+def host_arguments(fmus, tmp_path_factory) -> list[str]:
+    """The compiled library and, after the mode, the host's other arguments: both FMUs unzipped with their GUIDs,
+    the value reference of model.fidelity and the rigid fidelity."""
+    pendulum_fmu, pid_fmu = fmus
+    folder = tmp_path_factory.mktemp("exit_time_host")
+    compiler = shutil.which("cc") or shutil.which("gcc")
+    assert compiler, "a C compiler is needed for the FMU's binary and this host"
+    library = folder / "exit_time_host.so"
+    include = Path(fmpy.__file__).parent / "c-code"
+    source = HERE / "exit_time_host.c"
+    command = [compiler, "-O1", "-Wall", "-Wextra", "-shared", "-fPIC", f"-I{include}", str(source), "-ldl"]
+    subprocess.run([*command, "-o", str(library)], check=True)
+    pendulum = read_model_description(str(pendulum_fmu))
+    vr = {v.name: v.valueReference for v in pendulum.modelVariables}
+    return [
+        str(library),
+        extract(str(pendulum_fmu), unzipdir=str(folder / "pendulum")),
+        pendulum.guid,
+        extract(str(pid_fmu), unzipdir=str(folder / "pid")),
+        read_model_description(str(pid_fmu)).guid,
+        str(vr["model.fidelity"]),
+        str(RIGID),
+    ]
+
+
+@pytest.mark.parametrize(
+    "mode, handler",
+    [("atexit-last", "atexit"), ("atexit-first", "atexit"), ("destructor", "destructor")],
+)
+def test_instances_freed_after_python_is_finalised(host_arguments, mode, handler):
+    library, *rest = host_arguments
+    expected = (
+        f"exit-time-host {handler}: python initialised 0; "
+        "PidController terminate 3 freed; FemPendulum terminate 3 freed"
+    )
+    for run_number in range(RUNS):
+        run = subprocess.run(
+            [sys.executable, "-c", HOST, library, mode, *rest], capture_output=True, text=True, timeout=120
+        )
+        where = f"run {run_number + 1} of {RUNS}: exit code {run.returncode}\n{run.stderr[-3000:]}"
+        assert run.returncode == 0, where
+        assert run.stdout.split("\n")[0] == "started 0", where  # both instances initialised and stepped
+        handler_lines = [line for line in run.stderr.splitlines() if line.startswith("exit-time-host")]
+        assert handler_lines == [expected], where  # the handler ran once, after finalisation, and got fmi2Error
+        assert run.stderr.count("fmi2Terminate refused") == 2, where  # each binary said why, through the logger
