@@ -30,8 +30,16 @@ from .interface import TEMPLATE_NAME, render
 
 FMI_DIR = Path(__file__).resolve().parent
 PACKAGE_DIR = FMI_DIR.parent
-SHIM_SOURCES = ("fmi2_functions.c", "fmi2_states.c", "call_frame.c", "slave.c", "state_machine.c", "variables.c",
-                "fmu_states.c", "python_runtime.c")
+SHIM_SOURCES = (
+    "fmi2_functions.c",
+    "fmi2_states.c",
+    "call_frame.c",
+    "slave.c",
+    "state_machine.c",
+    "variables.c",
+    "fmu_states.c",
+    "python_runtime.c",
+)
 # what the pendulum FMU imports at run time besides pythonfmu, which pythonfmu ships in every FMU's
 # resources (fmpy and the masters' packages are not among them)
 PENDULUM_REQUIREMENTS = ("ngsolve", "numpy", "scipy")
