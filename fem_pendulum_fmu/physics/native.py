@@ -68,8 +68,11 @@ def _compiler() -> str | None:
 
 
 def _compile(compiler: str, output: Path) -> None:
+    """Build the kernels; with a search path even where the process has none (a native FMU host started
+    with an empty environment), since the compiler driver looks its linker up there."""
     command = [compiler, *FLAGS, "-o", str(output), *map(str, SOURCES), "-lm"]
-    subprocess.run(command, check=True, capture_output=True, timeout=120)
+    env = {**os.environ, "PATH": os.environ.get("PATH") or os.defpath}
+    subprocess.run(command, check=True, capture_output=True, timeout=120, env=env)
 
 
 @lru_cache(maxsize=1)
@@ -82,7 +85,8 @@ def kernels() -> ctypes.CDLL | None:
         LOG.info("no C compiler found: the FE residual and the reduced step run in their numpy forms")
         return None
     source = b"".join(path.read_bytes() for path in SOURCES)
-    key = {"source": hashlib.sha256(source).hexdigest(), "compiler": compiler, "flags": FLAGS}
+    # the compiler by its real path: /bin/cc (an empty PATH) and /usr/bin/cc are the same build
+    key = {"source": hashlib.sha256(source).hexdigest(), "compiler": os.path.realpath(compiler), "flags": FLAGS}
     key["machine"] = platform.machine()
     try:
         path = cached_file("kernel", key, ".so", lambda out: _compile(compiler, out))
