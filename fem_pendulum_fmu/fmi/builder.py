@@ -90,6 +90,7 @@ def compile_shim(output: Path, model_description: str) -> bool:
             *sources,
             "-ldl",
             "-lpthread",
+            "-lm",
             "-Wl,-z,defs",
             "-o",
             str(output),

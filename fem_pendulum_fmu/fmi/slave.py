@@ -377,11 +377,17 @@ class PendulumSlave(Fmi2Slave):
         if self.model is None:  # an instance started from an FMU state keeps the state's time
             self.time = float(start_time)
 
+    @property
+    def communication_time(self) -> float:
+        """The FMU's time, which the binary (shim/) reads after the calls that may set it."""
+        return self.model.time if self.model is not None else self.time
+
     def exit_initialization_mode(self) -> None:
+        self.init_error = None  # whatever an earlier, refused Exit found
         if self.model is not None:  # started from an FMU state (fmi2SetFMUstate after fmi2Instantiate)
+            self.stepping = True
             return
         t0 = time.perf_counter()
-        self.init_error = None
         with self._logging():
             try:
                 model = create(self.scene())
@@ -500,6 +506,7 @@ class PendulumSlave(Fmi2Slave):
             "torque": self.torque,
             "values": dict(self.values),
             "initialised": self.initialised,
+            "time": self.communication_time,  # a state taken before initialisation brings its start time
         }
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
@@ -526,6 +533,8 @@ class PendulumSlave(Fmi2Slave):
             if self.model is None:
                 self.initialised, self.time = True, model.time
             self.model, self.outputs, self.broken = model, model.outputs(), None
+        if state["model"] is None and self.model is None:
+            self.time = float(state["time"])
         self.torque = float(state["torque"])
 
     def _state_mismatch(self, state: dict[str, Any]) -> str | None:
@@ -543,7 +552,7 @@ class PendulumSlave(Fmi2Slave):
 
     @staticmethod
     def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:
-        head = {"torque": state["torque"], "values": state["values"], "initialised": state["initialised"]}
+        head = {key: state[key] for key in ("torque", "values", "initialised", "time")}
         model = state["model"].to_bytes() if state["model"] is not None else b""
         buf = io.BytesIO()
         np.savez(
@@ -592,8 +601,8 @@ class PendulumSlave(Fmi2Slave):
 
 def _state_shape_problem(head: Any) -> str | None:
     """Why a decoded state head is not one this slave writes (keys and types), or None."""
-    if not isinstance(head, dict) or set(head) != {"torque", "values", "initialised", "model"}:
+    if not isinstance(head, dict) or set(head) != {"torque", "values", "initialised", "time", "model"}:
         return "its contents are not those of a state of this FMU"
-    if not isinstance(head["values"], dict) or not isinstance(head["torque"], (int, float)):
-        return "its parameter values or torque are malformed"
+    if not isinstance(head["values"], dict) or not all(isinstance(head[k], (int, float)) for k in ("torque", "time")):
+        return "its parameter values, torque or time are malformed"
     return None

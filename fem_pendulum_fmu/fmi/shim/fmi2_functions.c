@@ -9,6 +9,7 @@
  * rely on. */
 #include "python_api.h"
 
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -20,6 +21,8 @@
 #include "slave.h"
 #include "state_machine.h"
 #include "variables.h"
+
+#define TIME_TOLERANCE 1e-9 /* as fmi/slave.py's _TIME_TOL */
 
 #ifndef FMU_GUID
 #error "FMU_GUID must be defined (fem_pendulum_fmu/fmi/builder.py)"
@@ -167,7 +170,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
     if (stop) py.DecRef(stop);
     if (tol) py.DecRef(tol);
     fmi2Status status = slave_settle(inst, "fmi2SetupExperiment", r, fmi2OK);
-    if (status == fmi2OK && !inst->restored) inst->time = startTime;
+    if (status == fmi2OK) take_slave_time(inst, inst->restored ? inst->time : startTime);
     return end(&f, status);
 }
 
@@ -178,6 +181,7 @@ static fmi2Status simple_call(fmi2Component c, Call call, const char *method, Ma
     if (inst == NULL) return fmi2Error;
     fmi2Status status = slave_settle(inst, call_name(call), py.CallMethod(inst->slave, method, NULL), fmi2OK);
     if (status == fmi2OK) inst->state = next;
+    if (status == fmi2OK && call == CALL_fmi2ExitInitializationMode) take_slave_time(inst, inst->time);
     return end(&f, status);
 }
 
@@ -211,11 +215,30 @@ fmi2Status fmi2Reset(fmi2Component c) {
     return status;
 }
 
+/* Why doStep(t, h) is refused, or NULL: h finite and > 0, t the FMU's time (within 1e-9, relative
+ * above 1 s), for any slave. */
+static const char *step_problem(const Instance *inst, double t, double h, char *why, size_t n) {
+    if (!(isfinite(h) && h > 0)) {
+        snprintf(why, n, "communication step size %.17g must be a finite number > 0", h);
+        return why;
+    }
+    double mismatch = fabs(t - inst->time);
+    if (!isfinite(t) || (mismatch > TIME_TOLERANCE && mismatch > TIME_TOLERANCE * fmax(1.0, fabs(t)))) {
+        snprintf(why, n, "communication point %.17g does not match the FMU's time %.17g", t, inst->time);
+        return why;
+    }
+    return NULL;
+}
+
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
     (void)noSetFMUStatePriorToCurrentPoint;
     Frame f;
-    Instance *inst = begin(c, CALL_fmi2DoStep, &f);
+    Instance *inst = allowed(c, CALL_fmi2DoStep);
     if (inst == NULL) return fmi2Error;
+    char why[256];
+    const char *bad = step_problem(inst, t, h, why, sizeof why);
+    if (bad != NULL) return refuse(inst, CALL_fmi2DoStep, bad);
+    if (!enter_python(inst, CALL_fmi2DoStep, &f)) return fmi2Error;
     PyObject *r = py.CallMethod(inst->slave, "do_step", "(dd)", t, h);
     int done = r != NULL ? py.IsTrue(r) : 0;
     if (done < 0) py.ErrClear();

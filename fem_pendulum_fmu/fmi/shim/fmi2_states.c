@@ -123,7 +123,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) {
     PyObject *r = py.CallMethod(inst->slave, "_set_fmu_state", "(O)", (PyObject *)entry->python_state);
     fmi2Status status = slave_settle(inst, "fmi2SetFMUstate", r, fmi2OK);
     if (status == fmi2OK) {
-        inst->time = entry->time;
+        take_slave_time(inst, entry->time);
         if (inst->state == STATE_INSTANTIATED) inst->restored = 1;
     }
     return end(&f, status);

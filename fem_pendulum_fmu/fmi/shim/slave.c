@@ -275,6 +275,19 @@ void slave_release(Instance *inst) {
     drop(&inst->cls);
 }
 
+/* The pendulum's `communication_time` is its model's time, or the start time before a model exists. */
+void take_slave_time(Instance *inst, double fallback) {
+    PyObject *t = py.HasAttrString(inst->slave, "communication_time")
+                      ? py.GetAttrString(inst->slave, "communication_time") : NULL;
+    double value = t ? py.FloatAsDouble(t) : fallback;
+    if (t) py.DecRef(t);
+    if (py.ErrOccurred()) {
+        py.ErrClear();
+        value = fallback;
+    }
+    inst->time = value;
+}
+
 PyObject *references(const fmi2ValueReference vr[], size_t n) {
     PyObject *list = py.ListNew((Py_ssize_t)n);
     for (size_t k = 0; list != NULL && k < n; k++) {

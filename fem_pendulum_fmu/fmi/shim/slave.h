@@ -49,6 +49,10 @@ void clear_reported_error(void);
 /* 1 when the slave has reported an error during the current call (not cleared). */
 int error_pending(void);
 
+/* With the GIL held: the FMU's time after a call that may set it: the slave's `communication_time`
+ * where it has one, else `fallback` (fmi2_functions.c). */
+void take_slave_time(Instance *inst, double fallback);
+
 /* Python lists of value references and values. */
 PyObject *references(const fmi2ValueReference vr[], size_t n);
 
