@@ -57,7 +57,6 @@ def fast_lane(lab):
 def test_random_sequences_never_crash_hang_answer_fatal_or_accept_a_forbidden_call(fast_lane):
     campaign, text = fast_lane
     assert campaign.sequences == FAST_LANE["n"] and campaign.calls > 2000, text
-    assert campaign.seconds < 90, text
     assert {k: campaign.violations[k] for k in ("crash", "hang", "fatal", "forbidden-OK")} == dict.fromkeys(
         ("crash", "hang", "fatal", "forbidden-OK"), 0
     ), text
@@ -81,6 +80,23 @@ def test_random_sequences_reach_the_interesting_states(fast_lane):
     assert campaign.answers["Error"] >= 300 and campaign.answers["Discard"] >= 60, text
     assert sum(v for k, v in kinds.items() if "+" in k) >= 15, text  # two instances at once
     assert sum(v for k, v in kinds.items() if "fem" in k) >= 2 and sum(v for k, v in kinds.items() if "pid" in k) >= 3
+
+
+SLOW_RUN = {"n": 1000, "seed": 1, "fem_share": 0.2, "two_share": 0.2, "pid_share": 0.1}
+
+
+@pytest.mark.slow
+def test_a_thousand_random_sequences_with_fem_and_two_instances_find_no_violation(lab):
+    """The slow run docs/fmu.md reports (also `python tests/fmi2_sequences.py --sequences 1000 --seed 1
+    --fem-share 0.2 --two-instance-share 0.2`): every violation kind zero, fem and pairs well covered."""
+    host, infos = lab
+    c = SLOW_RUN
+    campaign = run_campaign(Runner(host, infos), c["n"], c["seed"], c["fem_share"], c["two_share"], c["pid_share"])
+    text = report(campaign, {})
+    assert campaign.sequences == 1000 and campaign.calls > 30000, text
+    assert not any(campaign.violations.values()), text
+    assert sum(v for k, v in campaign.kinds.items() if "fem" in k) >= 100, text
+    assert sum(v for k, v in campaign.kinds.items() if "+" in k) >= 100, text
 
 
 FAKE_HOST = """#!/bin/sh
