@@ -38,11 +38,10 @@ const char *variables_problem(const fmi2ValueReference vr[], size_t n, Kind kind
         }
         if (setting && !(var->settable & state)) {
             if (var->settable == 0)
-                snprintf(why, size, "%s (value reference %u) is a %s variable and cannot be set", var->name, vr[k],
-                         var->causality);
+                snprintf(why, size, "%s (value reference %u) is %s and cannot be set", var->name, vr[k], var->what);
             else
-                snprintf(why, size, "%s (value reference %u) is a %s variable and cannot be set in state %s",
-                         var->name, vr[k], var->causality, state_name(state));
+                snprintf(why, size, "%s (value reference %u) is %s and cannot be set in state %s", var->name,
+                         vr[k], var->what, state_name(state));
             return why;
         }
     }

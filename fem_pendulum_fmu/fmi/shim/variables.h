@@ -15,7 +15,7 @@ typedef struct {
     fmi2ValueReference vr;
     Kind kind;
     const char *name;
-    const char *causality; /* "parameter (fixed)", for messages */
+    const char *what;      /* "an output", "a fixed parameter": for messages */
     int settable;          /* the states in which a host may set it (MachineState mask) */
 } Variable;
 
