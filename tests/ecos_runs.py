@@ -18,6 +18,7 @@ debug level, where the FMU's messages arrive as `[instance] fmi2Status message`.
 from __future__ import annotations
 
 import json
+import shutil
 import sys
 import threading
 from pathlib import Path
@@ -44,7 +45,8 @@ def fmpy_run(fmu: str, steps: str, *pairs: str) -> dict:
 
     md = read_model_description(fmu)
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(fmu), modelIdentifier="FemPendulum", instanceName="ref")
+    folder = extract(fmu)
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier="FemPendulum", instanceName="ref")
     slave.instantiate(visible=False, loggingOn=False)
     slave.setupExperiment(startTime=0.0)
     slave.enterInitializationMode()
@@ -61,6 +63,7 @@ def fmpy_run(fmu: str, steps: str, *pairs: str) -> dict:
         theta.append(slave.getReal([vr["theta"]])[0])
     slave.terminate()
     slave.freeInstance()
+    shutil.rmtree(folder, ignore_errors=True)
     return {"theta": theta}
 
 
