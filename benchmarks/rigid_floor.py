@@ -23,8 +23,10 @@ counts instead what the load cannot change: each FMU runs the same calls once
 under valgrind's callgrind, collected in the stepping loop only (run inside
 functools.reduce, callgrind's --toggle-collect); printed per doStep are the
 instructions of the whole loop (fmpy's side included) and of those inside the
-FMU's fmi2DoStep, fmi2SetReal and fmi2GetReal (inclusive, the entries of
-the FMU's binaries/linux64/*.so: the binary and the slave's Python), with the whole loop's ratio.
+FMU's fmi2DoStep, fmi2SetReal and fmi2GetReal (inclusive) where callgrind names
+them: it did under pythonfmu's binary, it does not under ours (entered from
+ctypes' libffi, their cost is filed under an unnamed frame), so with ours only the
+whole loop counts, with the whole loop's ratio.
 """
 
 from __future__ import annotations
