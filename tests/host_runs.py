@@ -10,8 +10,10 @@ Each prints one JSON line: what the test compares.
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import json
+import shutil
 import sys
 from pathlib import Path
 from typing import Any
@@ -49,6 +51,7 @@ def instance(fmu: str, name: str) -> tuple[FMU2Slave, dict[str, int], str]:
     """An instantiated FMU2Slave, the value references by name and the extraction folder."""
     md = read_model_description(fmu)
     folder = extract(fmu)
+    atexit.register(shutil.rmtree, folder, True)  # this child process's extraction folder, when it ends
     slave = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier="FemPendulum", instanceName=name)
     slave.instantiate()
     return slave, {v.name: v.valueReference for v in md.modelVariables}, folder
