@@ -18,21 +18,13 @@
 #include "fmi2Functions.h"
 #include "python_runtime.h"
 #include "call_frame.h"
+#include "fmu_build.h"
 #include "slave.h"
 #include "state_machine.h"
 #include "variables.h"
 
 #define TIME_TOLERANCE 1e-9 /* as fmi/slave.py's _TIME_TOL */
 
-#ifndef FMU_GUID
-#error "FMU_GUID must be defined (fem_pendulum_fmu/fmi/builder.py)"
-#endif
-#ifndef FMU_CAN_GET_SET_STATE
-#define FMU_CAN_GET_SET_STATE 0
-#endif
-#ifndef FMU_CAN_SERIALIZE_STATE
-#define FMU_CAN_SERIALIZE_STATE 0
-#endif
 
 /* ------------------------------------------------------------- life cycle */
 
@@ -121,17 +113,12 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     return inst;
 }
 
-static void free_saved_state(SavedState *entry) {
-    if (entry->python_state) py.DecRef((PyObject *)entry->python_state);
-    if (entry->serialised) py.DecRef((PyObject *)entry->serialised);
-}
-
 void fmi2FreeInstance(fmi2Component c) {
     Instance *inst = (Instance *)c;
     if (inst == NULL) return;
     if (python_usable()) { /* else the Python objects are left to the ending process */
         PyGILState_STATE gil = py.GILStateEnsure();
-        for (size_t k = 0; k < inst->states.n; k++) free_saved_state(&inst->states.items[k]);
+        release_all_states(inst);
         slave_release(inst);
         py.GILStateRelease(gil);
     }

@@ -12,18 +12,10 @@
 #include <string.h>
 
 #include "call_frame.h"
+#include "fmu_build.h"
 #include "fmi2Functions.h"
 #include "slave.h"
 
-#ifndef FMU_GUID
-#error "FMU_GUID must be defined (fem_pendulum_fmu/fmi/builder.py)"
-#endif
-#ifndef FMU_CAN_GET_SET_STATE
-#define FMU_CAN_GET_SET_STATE 0
-#endif
-#ifndef FMU_CAN_SERIALIZE_STATE
-#define FMU_CAN_SERIALIZE_STATE 0
-#endif
 
 #define MAGIC "FEMPFMU2"
 #define FORMAT_VERSION 1u
@@ -58,6 +50,10 @@ static void release_entry(SavedState *entry) {
     if (entry->python_state) py.DecRef((PyObject *)entry->python_state);
     if (entry->serialised) py.DecRef((PyObject *)entry->serialised);
     entry->python_state = entry->serialised = NULL;
+}
+
+void release_all_states(Instance *inst) {
+    for (size_t k = 0; k < inst->states.n; k++) release_entry(&inst->states.items[k]);
 }
 
 /* Keep `object` (a new reference) as the state *s: in place when *s is a live state of this

@@ -53,6 +53,9 @@ int error_pending(void);
  * where it has one, else `fallback` (fmi2_functions.c). */
 void take_slave_time(Instance *inst, double fallback);
 
+/* With the GIL held: drop the Python objects of every FMU state the instance still has (fmi2_states.c). */
+void release_all_states(Instance *inst);
+
 /* Python lists of value references and values. */
 PyObject *references(const fmi2ValueReference vr[], size_t n);
 
