@@ -253,8 +253,11 @@ class Host:
     Its stderr (the FMUs' log messages) goes to a file in `workdir`; `send` returns the answer and the
     log lines the call produced."""
 
-    def __init__(self, binary: Path, fmus: Iterable[FmuInfo], workdir: Path, timeout: float = 60.0) -> None:
+    def __init__(
+        self, binary: Path, fmus: Iterable[FmuInfo], workdir: Path, timeout: float = 60.0, env: dict | None = None
+    ) -> None:
         self.binary, self.fmus, self.workdir, self.timeout = Path(binary), list(fmus), Path(workdir), timeout
+        self.env = env or {}  # none by default: the FMU starts the Python it was built with (tests/test_c_host.py)
         self.proc: subprocess.Popen | None = None
         self.starts = 0
         self._buffer = b""
@@ -275,7 +278,7 @@ class Host:
             stdout=subprocess.PIPE,
             stderr=self._log_writer,
             cwd=self.workdir,
-            env={},  # the FMU starts the Python it was built with (tests/test_c_host.py)
+            env=self.env,
         )
         for fmu in self.fmus:
             answer, log = self._send(f"load {fmu.lib} {fmu.folder} {fmu.identifier}")

@@ -481,3 +481,40 @@ def test_a_failed_exit_leaves_nothing_behind(d):
     assert d.status("setstate 0 0") == OK, d.log  # builds the model from the state's parameters
     assert d.status("exit 0") == OK
     assert d.status("dostep 0 0.0 0.001 1") == OK, d.log
+
+
+# lifecycle entry points, and the rest: an instance reaches stepComplete only when the first do not raise
+RAISING_AT_START = ("setup_experiment", "enter_initialization_mode", "exit_initialization_mode")
+RAISING_LATER = (
+    "do_step", "get_real", "get_integer", "set_real", "set_integer", "terminate", "_get_fmu_state",
+)  # fmt: skip
+
+
+@pytest.mark.parametrize("raising", [RAISING_AT_START, RAISING_LATER], ids=["life-cycle", "step-mode"])
+def test_a_slave_that_raises_answers_error_never_fatal_in_a_native_host(fmus, tmp_path, raising):
+    """A copy of the pendulum whose slave raises in the named entry points (tests/test_fmi2_contract.py's
+    raising copy): each such call answers fmi2Error with the exception in the log, never fmi2Fatal, and the
+    host goes on; fmi2Reset and fmi2FreeInstance still work."""
+    from test_fmi2_contract import RAISE_SWITCH, raising_copy
+
+    info = load_fmu(raising_copy(fmus[0], tmp_path), 0, tmp_path / "raising")
+    host = Host(compile_host(tmp_path), [info], tmp_path, env={RAISE_SWITCH: ",".join(raising)})
+    d = Driver(host, {"pendulum": info, "pid": info})
+    try:
+        assert d.instantiate(0) == "ok"
+        later = raising == RAISING_LATER
+        for call in ("setup 0 0 0 0.0 0 0", "enter 0"):
+            assert d.status(call) == (OK if later else ERROR), d.log
+            assert later or d.logged("RuntimeError", "planted failure"), d.log
+        # Enter raised: still instantiated, so Exit is refused by the state machine, before the slave
+        assert d.status("exit 0") == (OK if later else ERROR) and (later or d.logged("refused in state instantiated"))
+        if later:
+            theta, torque = d.vr("theta"), d.vr("torque")
+            for call in ("dostep 0 0.0 0.001 1", f"getreal 0 1 {theta}", f"setreal 0 1 {torque} 0.5", "getstate 0 0"):
+                assert d.status(call) == ERROR and d.logged("RuntimeError", "planted failure"), (call, d.log)
+            assert d.status("terminate 0") == ERROR  # and the instance stays in stepComplete
+            assert d.status("dostep 0 0.0 0.001 1") == ERROR
+        assert d.status("reset 0") == OK
+        assert host.send("free 0")[0] == "done" and host.running
+    finally:
+        host.close()
