@@ -30,8 +30,8 @@ import time
 import ngsolve as ngs
 import numpy as np
 
+from fem_pendulum_fmu.physics.fem.model import FemModel
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
-from fem_pendulum_fmu.physics.models.fem import FemModel
 from fem_pendulum_fmu.physics.scene import PRESETS
 
 

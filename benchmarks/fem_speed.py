@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from fem_pendulum_fmu.physics.fem.model import FemModel
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
-from fem_pendulum_fmu.physics.models.fem import FemModel
 from fem_pendulum_fmu.physics.scene import stiff
 
 SEED = Path(__file__).resolve().parents[1].parent / "shared" / "baseline" / "seed_pendulum.py"

@@ -43,7 +43,7 @@ print(t_init, (time.perf_counter() - t0) / n)
 
 DIRECT = """
 import sys, time
-from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.scene import stiff
 n, fidelity = int(sys.argv[1]), sys.argv[2]
 m = create(stiff(**{"model.fidelity": fidelity}))

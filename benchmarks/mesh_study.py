@@ -15,8 +15,8 @@ import time
 
 import numpy as np
 
+from fem_pendulum_fmu.physics.fem.model import FemModel
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
-from fem_pendulum_fmu.physics.models.fem import FemModel
 from fem_pendulum_fmu.physics.scene import PRESETS
 
 CASES = ((0.06, 2), (0.03, 2), (0.03, 3), (0.015, 2), (0.015, 3))

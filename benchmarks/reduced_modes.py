@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.scene import PRESETS
 
 DT = 1e-3

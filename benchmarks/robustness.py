@@ -68,7 +68,7 @@ def memory() -> None:
     script = """
 import os, resource, sys, time, json
 os.environ['FEM_PENDULUM_CACHE'] = 'off'
-from fem_pendulum_fmu.physics.models.fem import FemModel
+from fem_pendulum_fmu.physics.fem.model import FemModel
 from fem_pendulum_fmu.physics.scene import stiff, estimated_unknowns, mesh_memory_estimate
 h, p = float(sys.argv[1]), int(sys.argv[2])
 scene = stiff(**{'model.mesh_size': h, 'model.order': p, 'theta0': 0.05})
@@ -101,7 +101,7 @@ if what.startswith("gauss"):
     original = material.averaged_pk2_stress
     n = int(sys.argv[2])
     material.averaged_pk2_stress = lambda C0, C1, lam, mu, points: original(C0, C1, lam, mu, n)
-from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.scene import compliant, stiff
 
 def worst(model, schedule):
@@ -125,9 +125,9 @@ elif what == "gauss-default":  # the default scene released at 20 degrees, 0.5 s
     w, out, secs = worst(m, [(k * 1e-3, 0.0) for k in range(1, 501)])
     print(json.dumps({"case": what, "points": n, "worst_J": w, "s": secs}))
 elif what == "quadrature":  # rubber (order 3), 2 N.m held in 0.1 ms steps: the energy guard, and the rules used before
-    import fem_pendulum_fmu.physics.models.fem as fem
-    import fem_pendulum_fmu.physics.models.fem_outputs as fem_outputs
-    from fem_pendulum_fmu.physics.models import StepFailed
+    import fem_pendulum_fmu.physics.fem.model as fem
+    import fem_pendulum_fmu.physics.fem.outputs as fem_outputs
+    from fem_pendulum_fmu.physics.fidelity import StepFailed
     from ngsolve import BND
     integrate, variant = fem_outputs.Integrate, sys.argv[2]
     if variant != "guard":

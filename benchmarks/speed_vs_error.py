@@ -117,7 +117,7 @@ def scene_of(case: SceneCase, values: dict | None = None):
 
 
 def available_fidelities() -> tuple[str, ...]:
-    from fem_pendulum_fmu.physics import models
+    from fem_pendulum_fmu.physics import fidelity as models
 
     return tuple(models.AVAILABLE)
 
@@ -129,7 +129,7 @@ def supports(fidelity: str, case: SceneCase) -> bool:
 
 def meant_for(fidelity: str, case: SceneCase) -> bool:
     """fem is meant for every scene; another fidelity for the scenes the auto rule gives it."""
-    from fem_pendulum_fmu.physics.models import resolve_fidelity
+    from fem_pendulum_fmu.physics.fidelity import resolve_fidelity
 
     if fidelity == "fem":
         return True

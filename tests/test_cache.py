@@ -9,7 +9,7 @@ import sys
 import numpy as np
 
 from fem_pendulum_fmu.physics import cache
-from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.scene import stiff
 
 WRITER = """

@@ -12,9 +12,9 @@ import ngsolve as ngs
 import numpy as np
 import pytest
 
+from fem_pendulum_fmu.physics.fem.model import FemModel
+from fem_pendulum_fmu.physics.fem.wall import WallFace
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
-from fem_pendulum_fmu.physics.models.fem import FemModel
-from fem_pendulum_fmu.physics.models.fem_wall import WallFace
 from fem_pendulum_fmu.physics.scene import stiff
 
 SCENE = {"wall.kind": "deformable", "model.order": 3, "model.mesh_size": 0.06}

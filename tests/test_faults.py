@@ -22,8 +22,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_fmu import Instance
 
-from fem_pendulum_fmu.physics import models
-from fem_pendulum_fmu.physics.models import StepFailed
+from fem_pendulum_fmu.physics import fidelity as models
+from fem_pendulum_fmu.physics.fidelity import StepFailed
 from fem_pendulum_fmu.physics.scene import stiff
 
 TESTS = str(Path(__file__).resolve().parent)

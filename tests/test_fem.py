@@ -18,8 +18,8 @@ import math
 import numpy as np
 import pytest
 
+from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
-from fem_pendulum_fmu.physics.models import create
 from fem_pendulum_fmu.physics.protocol import ModelState
 from fem_pendulum_fmu.physics.scene import compliant, stiff, validate
 from fem_pendulum_fmu.physics.swing import peaks_after_first_contact

@@ -9,7 +9,7 @@ import math
 
 import pytest
 
-from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.scene import stiff
 
 

@@ -1,4 +1,4 @@
-"""The FE step's fast residual and linear solve (models/fem_residual.py, models/fem_lu.py, native.py)
+"""The FE step's fast residual and linear solve (fem/residual.py, fem/lu.py, native.py)
 against the NGSolve form they stand in for."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
 from fem_pendulum_fmu.physics import native
-from fem_pendulum_fmu.physics.models.fem import FemModel
-from fem_pendulum_fmu.physics.models.fem_lu import HeldFactor
+from fem_pendulum_fmu.physics.fem.lu import HeldFactor
+from fem_pendulum_fmu.physics.fem.model import FemModel
 from fem_pendulum_fmu.physics.scene import compliant, stiff
 from fem_pendulum_fmu.physics.sparse import scipy_matrix
 
@@ -120,7 +120,7 @@ def test_compiled_jacobian_equals_the_forms_linearisation(case: str) -> None:
 
 @pytest.mark.parametrize("case", ["rubber, turned", "steel in contact"])
 def test_fused_iteration_equals_the_separate_calls(case: str) -> None:
-    """femp_iterate (fem_iteration.py) makes the residual's and the update's operations in their order: the
+    """femp_iterate (fem/iteration.py) makes the residual's and the update's operations in their order: the
     same iterate and correction size bit for bit, turned or not, with the contact term or without."""
     model = _loaded_at_an_iterate(case)
     nw = model.newton

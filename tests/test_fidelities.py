@@ -18,8 +18,8 @@ import math
 import numpy as np
 import pytest
 
+from fem_pendulum_fmu.physics.fidelity import AVAILABLE, PendulumModel, create
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
-from fem_pendulum_fmu.physics.models import AVAILABLE, PendulumModel, create
 from fem_pendulum_fmu.physics.protocol import ModelState, StepFailed
 from fem_pendulum_fmu.physics.scene import stiff
 

@@ -6,12 +6,12 @@ measured from cycle FIRST to the last (the first cycles still grow: the interpre
 library's own caches and heap arenas fill up).
 
 What used to stay behind after each free, and where it is fixed:
-* the FE model: bound methods of the model kept by its Newton solver (models/fem.py, `_weakly`) and the slave's
+* the FE model: bound methods of the model kept by its Newton solver (fem/model.py, `_weakly`) and the slave's
   registered accessors and log handler, bound to the slave (fmi/slave.py, `_register`, `_FmiLogHandler`), made
   reference cycles that only the garbage collector's full pass frees, rarely in a process that holds NGSolve;
   the binary now also calls the slave's release() at fmi2FreeInstance;
-* NGSolve's mapped integration points made by ElementTransformation(x, y), never freed (models/fem_residual.py,
-  volume_rule; models/fem_wall.py, WallFace);
+* NGSolve's mapped integration points made by ElementTransformation(x, y), never freed (fem/residual.py,
+  volume_rule; fem/wall.py, WallFace);
 * the OCC geometry, rebuilt for every model, whose shape operations left memory in netgen or OpenCascade
   (physics/geometry.py keeps the last 8 geometries).
 
@@ -41,7 +41,7 @@ import pytest
 from fmpy import extract, read_model_description
 
 from fem_pendulum_fmu.fmi.slave import PendulumSlave
-from fem_pendulum_fmu.physics.models import create
+from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.scene import Scene
 
 HERE = Path(__file__).resolve().parent
@@ -160,7 +160,7 @@ def test_release_frees_the_model_and_its_mesh_at_once():
 
 
 def test_a_dropped_instance_and_a_dropped_model_go_at_once():
-    """No reference cycle keeps an instance (slave.py) or an FE model (models/fem.py) beyond its last reference."""
+    """No reference cycle keeps an instance (slave.py) or an FE model (fem/model.py) beyond its last reference."""
     s = initialised_fem_slave()
     instance, model, mesh = weakref.ref(s), weakref.ref(s.model), weakref.ref(s.model.mesh)
     alone = create(Scene().with_values({"model.fidelity": "fem"}))

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 from fmu_runner import COMPLIANT, STIFF, col, run_schedule
 
-from fem_pendulum_fmu.physics import models
+from fem_pendulum_fmu.physics import fidelity as models
 from fem_pendulum_fmu.physics.scene import compliant, stiff
 
 RIGID_WALL = [f for f in ("rigid", "reduced", "fem") if f in models.AVAILABLE]

@@ -83,7 +83,7 @@ def test_moment_of_the_impulse_is_the_jump_of_angular_momentum(runs, fidelity):
 @pytest.mark.parametrize("fidelity", ["rigid", "reduced"])
 def test_a_restored_state_reports_the_step_it_was_taken_after(fidelity):
     """contact_force_max and contact_impulse describe the last step, like gap_min: set_state puts them back."""
-    from fem_pendulum_fmu.physics.models import create
+    from fem_pendulum_fmu.physics.fidelity import create
     from fem_pendulum_fmu.physics.protocol import ModelState
     from fem_pendulum_fmu.physics.scene import stiff
 

@@ -40,7 +40,7 @@ def check_physics(stdout: str) -> None:
     # theta at 0.5 s of the rubber pendulum released at 20 deg, and its energy less the torque's work
     theta, energy = _numbers(stdout)
     assert abs(theta) <= math.radians(20.0) * 1.001  # no torque: never beyond the release angle
-    from fem_pendulum_fmu.physics.models import create
+    from fem_pendulum_fmu.physics.fidelity import create
     from fem_pendulum_fmu.physics.scene import compliant
 
     start = create(compliant(**{"wall.kind": "rigid"})).outputs().total
@@ -52,7 +52,7 @@ def check_physics(stdout: str) -> None:
 # a word that identifies a block -> the check of its output
 CHECKS: dict[str, Callable[[str], None]] = {
     "simulate_fmu(": check_fmpy_api,
-    "fem_pendulum_fmu.physics.models import create": check_physics,
+    "fem_pendulum_fmu.physics.fidelity import create": check_physics,
 }
 
 

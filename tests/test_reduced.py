@@ -15,8 +15,10 @@ import math
 import numpy as np
 import pytest
 
-from fem_pendulum_fmu.physics import modes
-from fem_pendulum_fmu.physics.models import create, reduced, selection
+from fem_pendulum_fmu.physics import fidelity_rule as selection
+from fem_pendulum_fmu.physics.fidelity import create
+from fem_pendulum_fmu.physics.reduced import model as reduced
+from fem_pendulum_fmu.physics.reduced import modes
 from fem_pendulum_fmu.physics.scene import compliant, stiff
 
 DT = 1e-3

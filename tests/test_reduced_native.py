@@ -1,5 +1,5 @@
-"""The reduced fidelity's compiled step and terms (physics/reduced_kernel.c, models/reduced_native.py)
-against their numpy forms in models/reduced.py and models/reduced_strain.py."""
+"""The reduced fidelity's compiled step and terms (physics/reduced/reduced_kernel.c, reduced/kernel.py)
+against their numpy forms in reduced/model.py and reduced/strain.py."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from fem_pendulum_fmu.physics import native
-from fem_pendulum_fmu.physics.models.reduced import ReducedModel
+from fem_pendulum_fmu.physics.reduced.model import ReducedModel
 from fem_pendulum_fmu.physics.scene import compliant, stiff
 
 # the two forms sum the same terms in different orders: measured 1e-14 relative (strain energy,

@@ -1,4 +1,4 @@
-"""Acceptance tests of the rigid fidelity and of the exact arc contact law (rigid_contact.py).
+"""Acceptance tests of the rigid fidelity and of the exact arc contact law (rigid/arc_contact.py).
 
 Reference numbers are from shared/DESIGN.md section 2 (stiff preset, released
 at 20 degrees): first contact 239.4 ms, 0.338 ms in contact, 63 micrometres
@@ -24,11 +24,11 @@ import math
 import numpy as np
 import pytest
 
-from fem_pendulum_fmu.physics import rigid_contact as rc
+from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
-from fem_pendulum_fmu.physics.models import create
-from fem_pendulum_fmu.physics.models.rigid import RigidModel
 from fem_pendulum_fmu.physics.protocol import ModelState, StepFailed
+from fem_pendulum_fmu.physics.rigid import arc_contact as rc
+from fem_pendulum_fmu.physics.rigid.model import RigidModel
 from fem_pendulum_fmu.physics.scene import WallBlock, stiff
 from fem_pendulum_fmu.physics.swing import peaks_after_first_contact
 

@@ -1,4 +1,4 @@
-"""The rigid model's scalar solves and contact shortcuts (models/rigid.py, rigid_contact.py).
+"""The rigid model's scalar solves and contact shortcuts (rigid/model.py, rigid/arc_contact.py).
 
 A free-flight step takes one Newton update, accepted by an a-priori bound on the next one; a contact
 step's Newton stops once the next update, as quadratic convergence predicts it, would pass the
@@ -13,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
-from fem_pendulum_fmu.physics import rigid_contact as rc
-from fem_pendulum_fmu.physics.models import create
-from fem_pendulum_fmu.physics.models import rigid as rigid_module
+from fem_pendulum_fmu.physics.fidelity import create
+from fem_pendulum_fmu.physics.rigid import arc_contact as rc
+from fem_pendulum_fmu.physics.rigid import model as rigid_module
 from fem_pendulum_fmu.physics.scene import stiff
 
 FIRST_CONTACT = 0.2394  # s, the stiff scene released at 20 degrees (tests/test_rigid.py)

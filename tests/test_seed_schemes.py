@@ -13,10 +13,10 @@ import math
 import numpy as np
 import pytest
 
+from fem_pendulum_fmu.physics.fem.seed_stepping import gap_rule_step
+from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
-from fem_pendulum_fmu.physics.models import create
 from fem_pendulum_fmu.physics.scene import stiff
-from fem_pendulum_fmu.physics.seed_stepping import gap_rule_step
 
 COARSE = {"model.mesh_size": 0.06}
 

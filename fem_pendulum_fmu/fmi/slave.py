@@ -29,7 +29,7 @@ from pythonfmu import Fmi2Slave
 from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability
 from pythonfmu.variables import Boolean, Integer, Real, ScalarVariable, String
 
-from ..physics.models import PendulumModel, StepFailed, create
+from ..physics.fidelity import PendulumModel, StepFailed, create
 from ..physics.protocol import ModelState, Outputs
 from ..physics.scene import Scene
 from . import interface as fmi_interface

@@ -1,4 +1,4 @@
-"""Compiled inner loops (elastic_kernel.c, reduced_kernel.c): built once per machine, cached like meshes.
+"""Compiled inner loops (fem/elastic_kernel.c, reduced/reduced_kernel.c): built once per machine, cached.
 
 At the FE model's size (300-700 unknowns) a residual is a few hundred
 thousand floating-point operations, which NGSolve's integrators and numpy
@@ -28,7 +28,7 @@ from pathlib import Path
 from .cache import cached_file
 
 LOG = logging.getLogger("fem_pendulum_fmu")
-SOURCES = tuple(Path(__file__).with_name(name) for name in ("elastic_kernel.c", "reduced_kernel.c"))
+SOURCES = tuple(Path(__file__).parent / name for name in ("fem/elastic_kernel.c", "reduced/reduced_kernel.c"))
 ENV = "FEM_PENDULUM_KERNELS"  # "numpy": never compile, use the numpy forms
 # no -ffast-math and no contraction into fused multiply-adds: the same sums in the same order on every run
 FLAGS = ("-O3", "-shared", "-fPIC", "-ffp-contract=off")

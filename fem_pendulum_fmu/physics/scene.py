@@ -91,7 +91,7 @@ class SolverSettings:
     max_step: float = 2e-3  # largest internal step in free flight, s
     tolerance: float = 1e-3  # accuracy target of step control (see stepping.py)
     max_substeps: int = 0  # internal steps allowed per doStep (advance); 0 = no limit
-    scheme: str = "energy_momentum"  # fem only: or the seed's Newmark schemes (seed_stepping.py)
+    scheme: str = "energy_momentum"  # fem only: or the seed's Newmark schemes (fem/seed_stepping.py)
 
 
 @dataclass(frozen=True)

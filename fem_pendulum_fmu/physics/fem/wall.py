@@ -12,8 +12,8 @@
 * `discrete_gradient_contact`: the energy-momentum step's contact force, the
   exact discrete gradient of that energy for the pairs of the step start;
 * `WallResidual`: that contact term alone, for the split residual of
-  fem_residual.py.
-(fem_head.py's `PairGuard` gives the pairing radius a step needs: none while
+  fem/residual.py.
+(fem/head.py's `PairGuard` gives the pairing radius a step needs: none while
 the head cannot reach the wall within the step.)
 """
 
@@ -25,8 +25,8 @@ import scipy.sparse
 from ngsolve import BND, CF, InnerProduct, IntegrationRule, specialcf
 from ngsolve.fem import BaseMappedIntegrationPoint
 
-from .. import contact as wall_contact
-from .fem_space import FemSpace
+from . import contact as wall_contact
+from .space import FemSpace
 
 WALL_SEARCH_DISTANCE = 0.005  # m; the largest ContactBoundary pairing radius
 WALL_CONTACT_INTORDER = 6  # Gauss rule on the wall face's elements (4 points at order 6)
@@ -85,7 +85,7 @@ def discrete_gradient_contact(
 
 class WallResidual:
     """The wall contact term alone, on a form of its own, for a step residual evaluated apart from the full
-    step form (fem_residual.py): a second ContactBoundary, paired with the step form's, and a one-bit set
+    step form (fem/residual.py): a second ContactBoundary, paired with the step form's, and a one-bit set
     that is empty while it has no pairs (the residual then skips the form)."""
 
     def __init__(self, space: FemSpace, contact: ngs.ContactBoundary):
@@ -113,7 +113,7 @@ class WallFace:
         mesh, V, order = space.mesh, space.V, space.scene.model.order
         self.nodes = np.linspace(0.0, 1.0, order + 1)
         # points mapped from the MeshPoints of a rule, which Python owns: trafo(t) hands over a point that is
-        # never freed (fem_residual.volume_rule says more), 47 kB a model here; the numbers are the same
+        # never freed (residual.volume_rule says more), 47 kB a model here; the numbers are the same
         ends_rule, nodes_rule = IntegrationRule([(0.0,), (1.0,)]), IntegrationRule([(float(t),) for t in self.nodes])
         segments = []
         gf = ngs.GridFunction(V)

@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .scene import WallBlock
+from ..scene import WallBlock
 
 TWO_PI = 2.0 * math.pi
 FACES = ("right", "left", "top", "bottom")  # x_max, x_min, y_max, y_min

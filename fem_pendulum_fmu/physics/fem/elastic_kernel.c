@@ -1,7 +1,7 @@
 /* The FE step form's stress term at its integration points, as one loop (loaded by native.py).
  *
- * The same computation as ElasticTerms in models/fem_residual.py with
- * material_points.py: the deformation gradients F0 (step start) and F1 (step
+ * The same computation as ElasticTerms in fem/residual.py with
+ * fem/material_points.py: the deformation gradients F0 (step start) and F1 (step
  * end) at Q points from the sparse gradient matrix G of the scalar basis
  * (CSR, 2Q rows: d/dx at the points, then d/dy), the discrete-gradient second
  * Piola-Kirchhoff stress averaged along C0 -> C1 by a Gauss rule, P = F_mid S,
@@ -174,7 +174,7 @@ double femp_strain_energy(int q, const int *indptr, const int *indices, const do
 }
 
 /* Equilibrate and factorise a matrix without pivoting on a fill structure computed beforehand
- * (models/fem_lu.py, `Symbolic`): A (n x n, CSC, rows sorted) scaled to S A S, S = diag(scale) with
+ * (fem/lu.py, `Symbolic`): A (n x n, CSC, rows sorted) scaled to S A S, S = diag(scale) with
  * scale[c] = 1 / sqrt(max |A[:, c]|), then permuted, B[pos[r], pos[c]] = (S A S)[r, c], and B = L U with L
  * unit lower (strict part, CSC, Lp/Li) and U upper (strict part CSC, Up/Ui, rows increasing; diagonal
  * u_diag), the pattern of L + U that of B's symbolic factorisation. Left-looking, one column at a time in
@@ -301,7 +301,7 @@ void femp_stress_tangent(int q, const int *indptr, const int *indices, const dou
     }
 }
 
-/* One Newton iteration of the energy-momentum step form in a single call (models/fem_iteration.py fills the
+/* One Newton iteration of the energy-momentum step form in a single call (fem/iteration.py fills the
  * struct): the residual's linear terms and stress term added to res (which holds the wall contact term, or is
  * overwritten), the correction of the held factors turned by the angle whose cosine and sine are c and s
  * (turn 0: not turned), and w -= the correction. The same operations in the same order as the separate

@@ -1,7 +1,7 @@
-"""Strain energy of the reduced fidelity's modal field (models/reduced.py).
+"""Strain energy of the reduced fidelity's modal field (reduced/model.py).
 
 Stiff bodies use the quadratic modal energy, soft ones the FE model's Neo-Hookean law integrated
-over the mesh's quadrature points, compiled (physics/reduced_kernel.c) or in numpy: the reduced
+over the mesh's quadrature points, compiled (physics/reduced/reduced_kernel.c) or in numpy: the reduced
 model's hot loop never calls into the FE assembly.
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import Scene
-from .reduced_native import reduced_kernel
+from .kernel import reduced_kernel
 
 
 def uses_linear_strain(scene: Scene) -> bool:
@@ -28,7 +28,7 @@ class LinearStrain:
         self.linear_hessian = np.diag(omega2)
 
     def kernel_fields(self) -> dict:
-        """This energy's fields of the compiled kernel's data (models/reduced_native.py)."""
+        """This energy's fields of the compiled kernel's data (reduced/kernel.py)."""
         return {"m": len(self.omega2), "neo": 0, "omega2": self.omega2}
 
     def energy(self, q: np.ndarray) -> float:
@@ -52,8 +52,8 @@ class NeoHookeanStrain:
     def __init__(self, scene: Scene, phi: np.ndarray, omega2: np.ndarray):
         import ngsolve as ngs
 
-        from ..modes import fe_space
         from ..scene import element_order
+        from .modes import fe_space
 
         mesh, V = fe_space(scene)
         rule = ngs.IntegrationRule(ngs.TRIG, 2 * element_order(scene))
@@ -85,7 +85,7 @@ class NeoHookeanStrain:
         self._kernel = reduced_kernel(**self.kernel_fields())
 
     def kernel_fields(self) -> dict:
-        """This energy's fields of the compiled kernel's data (models/reduced_native.py), with a
+        """This energy's fields of the compiled kernel's data (reduced/kernel.py), with a
         scratch buffer of its own for each kernel."""
         m, nqp = self._fields["m"], self._fields["nqp"]
         return {**self._fields, "work": np.zeros(nqp * (4 + 10 * m))}

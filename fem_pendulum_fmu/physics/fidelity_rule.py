@@ -5,7 +5,7 @@ against the pendulum's first elastic period; a contact that lasts several
 periods loads the body quasi-statically and a rigid body loses nothing. So the
 rule compares the contact duration t_c (the rigid model's estimate, the same the
 step control uses, at the impact speed of `impact_speed`) with the first
-elastic frequency f1 of the hinged pendulum (modes.py):
+elastic frequency f1 of the hinged pendulum (reduced/modes.py):
 
 * a deformable wall: fem (only the FE model meshes the wall);
 * f1 t_c >= RIGID_CONTACT_PERIODS, or no contact and f1 >= RIGID_SWING_RATIO
@@ -25,11 +25,11 @@ import logging
 import math
 from dataclasses import dataclass
 
-from ..mass_properties import gravity_moment, swing_energy
-from ..modes import first_elastic_frequency, modal_basis
-from ..scene import Scene
-from .reduced import uses_linear_strain
-from .rigid import RigidModel
+from .mass_properties import gravity_moment, swing_energy
+from .reduced.model import uses_linear_strain
+from .reduced.modes import first_elastic_frequency, modal_basis
+from .rigid.model import RigidModel
+from .scene import Scene
 
 LOG = logging.getLogger("fem_pendulum_fmu")
 

@@ -1,4 +1,4 @@
-"""One Newton iteration of the energy-momentum step in a single kernel call (femp_iterate, elastic_kernel.c).
+"""One Newton iteration of the energy-momentum step in a single kernel call (femp_iterate, fem/elastic_kernel.c).
 
 On the rubber scene's mesh an iteration cost about 150 us, of which the
 kernels' arithmetic (stress, linear terms, the held factors' solve) about
@@ -17,8 +17,8 @@ import math
 
 import numpy as np
 
-from .fem_lu import HeldFactor
-from .fem_residual import SplitResidual
+from .lu import HeldFactor
+from .residual import SplitResidual
 
 _I, _D, _P = ctypes.c_int, ctypes.c_double, ctypes.c_void_p
 
@@ -38,7 +38,7 @@ class _Factors(ctypes.Structure):
 
 
 class _Iteration(ctypes.Structure):
-    """struct femp_iteration of elastic_kernel.c, field for field."""
+    """struct femp_iteration of fem/elastic_kernel.c, field for field."""
 
     _fields_ = [("size", _I), ("n_disp", _I), ("nS", _I), ("n_bodies", _I), ("bodies", _Body * 2)]
     _fields_ += [("mass", _Csr), ("hinge", _Csr), ("torque", _Csr), ("constant", _P), ("wv", _P)]

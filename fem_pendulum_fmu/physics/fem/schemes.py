@@ -9,12 +9,12 @@
   the torque up to the Newton tolerance, so impacts neither gain nor lose energy.
 * `SeedNewmark` (newmark_fixed, newmark_gap_rule): the seed tutorial's
   trapezoidal Newmark rule (beta 1/4, gamma 1/2; stress, contact and torque at
-  the step's end) with the seed's step-size rules (seed_stepping.py), on the
+  the step's end) with the seed's step-size rules (fem/seed_stepping.py), on the
   same mesh, material and contact law: kept only so that the benchmarks can
   compare the seed's schemes with ours on equal terms.
 
 A step form is the residual of one step in the unknowns (u1, hinge
-multipliers); its linearisation is the Newton Jacobian (fem_newton.py). It
+multipliers); its linearisation is the Newton Jacobian (fem/newton.py). It
 reads the step's start state, size and torque from `StepInputs`.
 """
 
@@ -41,14 +41,15 @@ from ngsolve import (
     specialcf,
 )
 
-from .. import contact as wall_contact
-from .. import material, seed_stepping, stepping
+from .. import material, stepping
 from ..fe_boundary import hinge_torque_load
 from ..scene import Material, Scene
-from .fem_head import PairGuard
-from .fem_residual import ElasticTerms, LinearTerms, SplitResidual
-from .fem_space import FemSpace, FemState
-from .fem_wall import (
+from . import contact as wall_contact
+from . import seed_stepping
+from .head import PairGuard
+from .residual import ElasticTerms, LinearTerms, SplitResidual
+from .space import FemSpace, FemState
+from .wall import (
     NO_PAIRS,
     WALL_CONTACT_INTORDER,
     WALL_SEARCH_DISTANCE,
@@ -58,7 +59,7 @@ from .fem_wall import (
 )
 
 if TYPE_CHECKING:
-    from .fem import FemModel
+    from .model import FemModel
 
 
 @dataclass
@@ -95,7 +96,7 @@ class StepForm:
     wall_contact: ngs.ContactBoundary | None  # ContactBoundary of the meshed wall (None: not meshed, or k = 0)
     pair_guard: PairGuard | None = None  # with wall_contact: whether the head is out of the pairs' reach
     pairs_empty: bool = True  # the form holds no contact pairs
-    split: SplitResidual | None = None  # the same residual, faster (fem_residual.py); None: form.Apply
+    split: SplitResidual | None = None  # the same residual, faster (fem/residual.py); None: form.Apply
     wall_residual: WallResidual | None = None  # the wall contact alone, paired with the form (for split)
 
     def update_wall_pairs(self, u0: GridFunction) -> None:

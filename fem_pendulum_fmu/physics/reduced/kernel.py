@@ -1,6 +1,6 @@
-"""The reduced fidelity's compiled step and terms (physics/reduced_kernel.c), bound to one model's data.
+"""The reduced fidelity's compiled step and terms (physics/reduced/reduced_kernel.c), bound to one model's data.
 
-ReducedModel (models/reduced.py) and NeoHookeanStrain (models/reduced_strain.py)
+ReducedModel (reduced/model.py) and NeoHookeanStrain (reduced/strain.py)
 keep their numpy forms of the same computations; where native.kernels() finds a
 C compiler they call these instead (equal up to round-off, each run
 deterministic either way; tests/test_reduced_native.py compares them).
@@ -19,7 +19,7 @@ _I, _D, _P = ctypes.c_int, ctypes.c_double, ctypes.c_void_p
 
 
 class KernelData(ctypes.Structure):
-    """The C struct `Reduced` of physics/reduced_kernel.c, field for field."""
+    """The C struct `Reduced` of physics/reduced/reduced_kernel.c, field for field."""
 
     _fields_ = [
         ("m", _I),

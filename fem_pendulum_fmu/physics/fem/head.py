@@ -6,7 +6,7 @@ to the block are kept, as every step asks for them twice) for what the step
 control and the contact set need: the gap and its rate at the closest point,
 which head elements can reach the block within a step (contact is assembled on
 those only); for the meshed wall the gap is taken to its deformed face
-(fem_wall.py), and `PairGuard` tells when no contact pair can form.
+(fem/wall.py), and `PairGuard` tells when no contact pair can form.
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse
 
-from .. import contact as wall_contact
 from ..contact_time import ClosestPoint
 from ..fe_boundary import head_points
-from .fem_space import FemSpace, FemState
-from .fem_wall import WALL_SEARCH_DISTANCE, WallFace
+from . import contact as wall_contact
+from .space import FemSpace, FemState
+from .wall import WALL_SEARCH_DISTANCE, WallFace
 
 # added to the reach of a step (PairGuard): it covers the wall face's displacement (um) and the head curve
 # between its sample points (< 1 um)

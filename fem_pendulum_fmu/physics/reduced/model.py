@@ -5,7 +5,7 @@ Floating frame of reference: a material point X of the pendulum is at
     x = R(theta) (X + sum_j phi_j(X) q_j)
 
 with a mass-normalised basis phi_j of the hinged pendulum's elastic motion
-(modes.py: eigenmodes and static corrections for the loads). The modes are
+(reduced/modes.py: eigenmodes and static corrections for the loads). The modes are
 mass-orthogonal to the rigid rotation, so theta is the FE model's best-fit angle
 and p_theta its angular momentum about the pivot.
 Energies, with z = (theta, q) and momenta p = M(q) dz/dt:
@@ -25,8 +25,8 @@ Gonzalez's correction in the mass metric. Over every step H changes by exactly
 the torque's work tau (d theta + beta . dq), so impacts neither gain nor lose
 energy. Step sizes come from stepping.py, as for the other fidelities.
 
-The step, the contact terms and the gap run in physics/reduced_kernel.c
-(models/reduced_native.py) where a C compiler built it; the numpy forms here
+The step, the contact terms and the gap run in physics/reduced/reduced_kernel.c
+(reduced/kernel.py) where a C compiler built it; the numpy forms here
 are the same computation, the fallback and the kernel's test reference.
 """
 
@@ -37,14 +37,14 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
-from .. import rigid_contact
 from ..contact_time import ClosestPoint, contact_time_scale, effective_mass
-from ..modes import ModalBasis, modal_basis
 from ..protocol import BodyField, ModelState, Outputs, last_advance_scalars, restore_last_advance, restored_min_gap
+from ..rigid import arc_contact as rigid_contact
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
-from .reduced_native import ReducedKernel, reduced_kernel
-from .reduced_strain import LinearStrain, NeoHookeanStrain, uses_linear_strain
+from .kernel import ReducedKernel, reduced_kernel
+from .modes import ModalBasis, modal_basis
+from .strain import LinearStrain, NeoHookeanStrain, uses_linear_strain
 
 if TYPE_CHECKING:
     from ngsolve import CoefficientFunction, GridFunction
@@ -175,7 +175,7 @@ class ReducedModel(SteppedModel[tuple]):
         self._head_phi_rows = b.head_phi  # (P, 2, m)
 
     def _bind_kernel(self) -> ReducedKernel | None:
-        """The compiled step (physics/reduced_kernel.c) on this model's data, or None (numpy forms)."""
+        """The compiled step (physics/reduced/reduced_kernel.c) on this model's data, or None (numpy forms)."""
         b, blk = self.basis, self.block
         return reduced_kernel(
             **self._strain.kernel_fields(),
@@ -408,7 +408,7 @@ class ReducedModel(SteppedModel[tuple]):
         return None
 
     def _compiled_step(self, x: tuple, dt: float, torque: float, kernel: ReducedKernel) -> tuple | None:
-        """step() in physics/reduced_kernel.c; the end's potential parts remembered for the outputs."""
+        """step() in physics/reduced/reduced_kernel.c; the end's potential parts remembered for the outputs."""
         done = kernel.step(x[0], x[1], self.potential_energy(x[0]), dt, torque)
         if done is None:
             return None
@@ -698,7 +698,7 @@ class ReducedModel(SteppedModel[tuple]):
         return closest.gap, closest.rate
 
     def contact_scales(self, x: tuple) -> tuple[float, float]:
-        """Contact duration and depth from the rigid-body effective mass at the closest point (as fem.py)."""
+        """Contact duration and depth from the rigid-body effective mass at the closest point (as fem/model.py)."""
         if not self.contact_on:
             return math.inf, 0.0
         circle_gap, circle_rate = self._circle_gap(x)
@@ -788,7 +788,7 @@ class ReducedModel(SteppedModel[tuple]):
             import ngsolve as ngs
 
             from .. import material
-            from ..modes import fe_space
+            from .modes import fe_space
 
             mesh, V = fe_space(self.scene)
             gf = ngs.GridFunction(V)

@@ -3,7 +3,7 @@
 Mass, centre of mass and moment of inertia come from mass_properties.py, integrated over the very mesh
 geometry the FE model uses (geometry.make_mesh, fine and highly curved), so
 the two fidelities describe the same body. Contact is the penalty law of
-contact.py on the head's outer arc, integrated exactly by rigid_contact.py.
+contact.py on the head's outer arc, integrated exactly by rigid/arc_contact.py.
 
 Time integration is the one-DOF discrete gradient (energy-consistent
 midpoint) rule, with q = theta, V = gravity + contact energy:
@@ -24,7 +24,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .. import rigid_contact
 from ..contact_time import effective_mass
 from ..mass_properties import gravity_moment, mass_properties
 from ..protocol import (
@@ -38,6 +37,7 @@ from ..protocol import (
 )
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import HOLD_DECAY, StepControl, SteppedModel
+from . import arc_contact as rigid_contact
 
 if TYPE_CHECKING:
     from ..fields import VertexSampler

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import logging
 
-from ..protocol import ModelState, Outputs, PendulumModel, StepFailed
-from ..scene import AUTO_ORDER, Scene, element_order, validate
+from .protocol import ModelState, Outputs, PendulumModel, StepFailed
+from .scene import AUTO_ORDER, Scene, element_order, validate
 
 LOG = logging.getLogger("fem_pendulum_fmu")
 
@@ -13,8 +13,8 @@ AVAILABLE = ("rigid", "reduced", "fem")
 
 
 def resolve_fidelity(scene: Scene) -> str:
-    """The fidelity that runs for a scene: the parameter, or for "auto" the rule of selection.py."""
-    from .selection import resolve
+    """The fidelity that runs for a scene: the parameter, or for "auto" the rule of fidelity_rule.py."""
+    from .fidelity_rule import resolve
 
     return resolve(scene)
 
@@ -30,14 +30,14 @@ def create(scene: Scene) -> PendulumModel:
             f"parameter model.fidelity = {fidelity!r} is not available: choose one of auto, {', '.join(AVAILABLE)}"
         )
     if fidelity == "rigid":
-        from .rigid import RigidModel  # refuses a deformable wall itself
+        from .rigid.model import RigidModel  # refuses a deformable wall itself
 
         return RigidModel(scene)
     if fidelity == "reduced":
-        from .reduced import ReducedModel  # refuses a deformable wall itself
+        from .reduced.model import ReducedModel  # refuses a deformable wall itself
 
         return ReducedModel(scene)
-    from .fem import FemModel
+    from .fem.model import FemModel
 
     return FemModel(scene)
 

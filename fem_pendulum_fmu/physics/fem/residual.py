@@ -14,7 +14,7 @@ are therefore assembled once:
   its load Cof(F) N is linear in F for 2 x 2 matrices.
 
 The discrete-gradient stress is summed at the form's own integration points
-from precomputed basis gradients (`ElasticTerms`: physics/elastic_kernel.c,
+from precomputed basis gradients (`ElasticTerms`: physics/fem/elastic_kernel.c,
 or numpy where it is not compiled), and only the wall contact, on the head
 elements within reach, is integrated by NGSolve. The sum is the same residual
 as the full form's up to round-off (tests/test_fem_residual.py), and the full
@@ -33,10 +33,10 @@ from ngsolve import H1, TRIG, VOL, BilinearForm, Cof, Grad, InnerProduct, Integr
 from ngsolve.fem import BaseMappedIntegrationPoint
 
 from .. import material, native
-from .. import material_points as points
 from ..scene import Material
 from ..sparse import scipy_matrix
-from .fem_space import FemSpace
+from . import material_points as points
+from .space import FemSpace
 
 
 class LinearTerms:
@@ -203,7 +203,7 @@ class _Body:
 
 class ElasticTerms:
     """The discrete-gradient stress term h P(F0, F1) : Grad(du) of every body: the same integrand and
-    rule as the step form's, in the compiled kernel (native.py) or else in numpy (material_points.py)."""
+    rule as the step form's, in the compiled kernel (native.py) or else in numpy (fem/material_points.py)."""
 
     def __init__(self, space: FemSpace, dg_points: Callable[[Material], int]):
         self._lib = native.kernels()
@@ -345,7 +345,7 @@ class SplitResidual:
         self.linear.load(u0, v0, dt, torque_load)
 
     def jacobian(self, free: np.ndarray, indptr: np.ndarray, indices: np.ndarray) -> SplitJacobian:
-        """The step form's Jacobian on a pattern of the free unknowns (fem_newton.Tangent)."""
+        """The step form's Jacobian on a pattern of the free unknowns (newton.Tangent)."""
         return SplitJacobian(self, free, indptr, indices)
 
     def allocate_contact_matrix(self) -> None:
@@ -394,7 +394,7 @@ class SplitResidual:
 
 class SplitJacobian:
     """The energy-momentum step form's Jacobian at w, as the entries of a matrix on a CSC pattern of the
-    free unknowns (the full form's, fem_lu.HeldFactor.pattern_of): the linear terms' matrices scaled by
+    free unknowns (the full form's, lu.HeldFactor.pattern_of): the linear terms' matrices scaled by
     the step's factors, the stress term's tangent from the kernel at the residual's own points, NGSolve's
     linearisation only for the rigid-wall contact while head elements are in its set. NGSolve's assembly
     of the full form took 4.9-5.7 ms on the rubber scene's mesh, nearly all of it the stress term

@@ -32,17 +32,17 @@ import scipy.sparse as sp
 from ngsolve import GridFunction
 
 from .. import native
-from .fem_iteration import FusedIteration
-from .fem_lu import HeldFactor
-from .fem_residual import SplitResidual
-from .fem_space import FemSpace, FemState
+from .iteration import FusedIteration
+from .lu import HeldFactor
+from .residual import SplitResidual
+from .space import FemSpace, FemState
 
-# With the residual compiled (fem_residual.py) an iteration costs about 0.16 ms on the rubber scene's mesh,
+# With the residual compiled (fem/residual.py) an iteration costs about 0.16 ms on the rubber scene's mesh,
 # a re-assembly and factorisation about 8 ms: the held Jacobian is kept while the corrections shrink by at
 # least 1 / SLOWEST_CONTRACTION and would converge within NEWTON_MAX_IT iterations. Rubber, 2 s (four
 # impacts): 2x and 20 iterations took 701 re-assemblies from u0 + dt v0 and 349 (28369 iterations) from
 # FemModel._guess; 1.4x and 30 take 190 (33687 iterations): 6 % less time (docs/fem.md). With the Jacobian
-# and its factors compiled (fem_residual.SplitJacobian, fem_lu.Symbolic) a new one costs about 1.5 ms, nine
+# and its factors compiled (residual.SplitJacobian, lu.Symbolic) a new one costs about 1.5 ms, nine
 # iterations; refreshing it too when the rate predicted more than 12 or 15 iterations saved 13 % of them for
 # twice the Jacobians, no faster (docs/fem.md, "Jacobians and factors in the kernel").
 NEWTON_MAX_IT = 30
@@ -91,7 +91,7 @@ Inertia = tuple[sp.csr_matrix, Callable[[float], float]]
 # guess(start state, dt): Newton's start iterate of u1
 Guess = Callable[[FemState, float], np.ndarray]
 # tangent(free unknowns, pattern's CSC indptr, indices) -> jacobian(w): the step form's Jacobian at w as the
-# entries on that pattern (fem_residual.SplitJacobian); None: NGSolve assembles the form's linearisation
+# entries on that pattern (residual.SplitJacobian); None: NGSolve assembles the form's linearisation
 Tangent = Callable[[np.ndarray, np.ndarray, np.ndarray], Callable[[ngs.BaseVector], np.ndarray]]
 # load(u0, v0, dt, torque, active head elements or None): set the step form's inputs
 # residual(w, res): the step form's residual at w into res (ngsolve vectors)

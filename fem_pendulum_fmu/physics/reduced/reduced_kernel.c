@@ -1,7 +1,7 @@
 /* The reduced fidelity's step as one compiled call (loaded by native.py).
  *
- * The same computation as ReducedModel.step in models/reduced.py, with the
- * strain energy of models/reduced_strain.py and the wall contact of
+ * The same computation as ReducedModel.step in reduced/model.py, with the
+ * strain energy of reduced/strain.py and the wall contact of
  * ReducedModel._evaluate_contact: the linearised midpoint predictor, Newton on
  * the discrete-gradient equations with the Jacobian of first order in the step,
  * and the energy-balance test. A step is 13 unknowns by default, so numpy's
@@ -12,7 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Field order and types must match KernelData in models/reduced_native.py. */
+/* Field order and types must match KernelData in reduced/kernel.py. */
 typedef struct {
     int m; /* modes; z = (theta, q) has n = m + 1 entries */
     double inertia0, g, hk;

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import math
 
-from .protocol import StepFailed
-from .stepping import AdvanceResult, ContactTally, StepControl, Steppable, X, check_substeps
+from ..protocol import StepFailed
+from ..stepping import AdvanceResult, ContactTally, StepControl, Steppable, X, check_substeps
 
 GAP_RULE = ((1e-3, 1e-4), (5e-3, 5e-4), (1e-2, 1e-3))  # (gap below, step), the seed's thresholds
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from ngsolve import CF, CoefficientFunction, IfPos, InnerProduct
 
-from .scene import WallBlock
+from ..scene import WallBlock
 
 _EPS_LEN = 1e-30
 

@@ -1,7 +1,7 @@
 """The FE model's discretisation of a scene (mesh, spaces, the bodies on it, evaluation fields) and its state.
 
-Everything else of the FE model (the step forms of fem_schemes.py, the head
-sampling of fem_head.py, the outputs of fem_outputs.py) is built on one
+Everything else of the FE model (the step forms of fem/schemes.py, the head
+sampling of fem/head.py, the outputs of fem/outputs.py) is built on one
 `FemSpace`.
 """
 

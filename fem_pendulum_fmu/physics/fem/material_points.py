@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .material import GAUSS_ON_UNIT_INTERVAL
+from ..material import GAUSS_ON_UNIT_INTERVAL
 
 
 def right_cauchy_green(F: np.ndarray) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 The pendulum's displacement in a frame rotating with it is written as
 w(X) = sum_j phi_j(X) q_j. The basis: the lowest eigenmodes of the linearised
-FE model (the same mesh, order, material and hinge condition as models/fem.py,
+FE model (the same mesh, order, material and hinge condition as fem/model.py,
 i.e. zero mean displacement of the hinge edge) and static corrections for the
 loads the pendulum sees (contact patches on the head, the hinge torque), made
 mass-orthonormal together by Rayleigh-Ritz. The rigid rotation about the pivot
@@ -25,8 +25,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .scene import Scene, element_order
-from .sparse import scipy_matrix
+from ..scene import Scene, element_order
+from ..sparse import scipy_matrix
 
 if TYPE_CHECKING:
     from ngsolve import CoefficientFunction, FESpace, Mesh
@@ -97,14 +97,14 @@ def modal_key(scene: Scene) -> dict:
 
 def modal_basis(scene: Scene) -> ModalBasis:
     """The scene's modal basis, from the disk cache or computed (a few seconds)."""
-    from .cache import load_or_build
+    from ..cache import load_or_build
 
     return ModalBasis.from_bytes(load_or_build("modes", modal_key(scene), lambda: compute_modes(scene).to_bytes()))
 
 
 def first_elastic_frequency(scene: Scene) -> float:
     """Lowest elastic eigenfrequency (Hz) of the hinged pendulum on the scene's mesh (cached)."""
-    from .cache import load_or_build_json
+    from ..cache import load_or_build_json
 
     key = {k: v for k, v in modal_key(scene).items() if k not in ("modes", "head_rule")}
 
@@ -153,7 +153,7 @@ def fe_space(scene: Scene) -> tuple[Mesh, FESpace]:
     """(mesh, displacement space) of the pendulum alone, as the FE model discretises it."""
     from ngsolve import VectorH1
 
-    from .geometry import make_mesh
+    from ..geometry import make_mesh
 
     order = element_order(scene)
     mesh = make_mesh(scene.geometry, scene.model.mesh_size, order)
@@ -232,7 +232,7 @@ def compute_modes(scene: Scene) -> ModalBasis:
     """Eigenmodes and load corrections of the hinged pendulum, reduced to a ModalBasis."""
     from ngsolve import CF, BilinearForm, GridFunction, InnerProduct, Integrate, LinearForm, ds, dx, specialcf, x, y
 
-    from .fe_boundary import head_points, hinge_torque_load
+    from ..fe_boundary import head_points, hinge_torque_load
 
     mat = scene.pendulum
     h, rho = mat.thickness, mat.rho

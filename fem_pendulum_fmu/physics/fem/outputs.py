@@ -14,17 +14,17 @@ import ngsolve as ngs
 import numpy as np
 from ngsolve import BND, VOL, BilinearForm, Cof, Grad, Id, InnerProduct, Integrate, IntegrationRule, LinearForm, x, y
 
-from .. import contact as wall_contact
 from .. import material
 from ..fields import VertexSampler, body_field
 from ..protocol import BodyField, Outputs
 from ..sparse import scipy_matrix
-from .fem_head import HeadBoundary
-from .fem_schemes import StepInputs
-from .fem_space import FemSpace, FemState
-from .fem_wall import CLEAR_OF_FACE, WallContact
+from . import contact as wall_contact
+from .head import HeadBoundary
+from .schemes import StepInputs
+from .space import FemSpace, FemState
+from .wall import CLEAR_OF_FACE, WallContact
 
-# The head's sample points are the Gauss points of the contact integrals' rule (fem_head.py): when the
+# The head's sample points are the Gauss points of the contact integrals' rule (fem/head.py): when the
 # closest is farther from the block than this (1 nm, far above round-off), every penalty integrand is 0
 CLEAR_OF_BLOCK = 1e-9
 
@@ -39,7 +39,7 @@ class FemOutputs:
         head: HeadBoundary,
         strain_energy: Callable[[np.ndarray], float] | None = None,
     ):
-        """strain_energy(u): the step form's own strain energy of u (fem_residual.ElasticTerms), where
+        """strain_energy(u): the step form's own strain energy of u (residual.ElasticTerms), where
         the model has one; else the energy density is integrated here, by the same rule."""
         self._space, self._head = space, head
         self._strain_energy = strain_energy
@@ -89,7 +89,7 @@ class FemOutputs:
             d, grad = wall_contact.depth_and_gradient(space.pos + gf_u, sc.block)
             self._contact_energy_cf = (h * wall_contact.penalty_energy(d, k)).Compile()
             self._contact_force_cf = (h * ngs.IfPos(d, k * d, 0.0) * (-grad)).Compile()
-            # the energy-momentum form's contact term of a step from gf_u0 to gf_u (fem_schemes.py)
+            # the energy-momentum form's contact term of a step from gf_u0 to gf_u (fem/schemes.py)
             self._gf_u0 = ngs.GridFunction(space.V)
             self._dg_force_cf = (
                 h * wall_contact.discrete_gradient_force(space.pos + self._gf_u0, space.pos + gf_u, sc.block, k)

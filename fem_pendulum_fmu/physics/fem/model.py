@@ -2,17 +2,17 @@
 
 `FemModel` puts together pieces that each hold one concern:
 
-* fem_space.py    the mesh, the spaces and the bodies on them; the state `FemState`;
-* fem_schemes.py  the step forms, one builder per time integration scheme: the
+* fem/space.py    the mesh, the spaces and the bodies on them; the state `FemState`;
+* fem/schemes.py  the step forms, one builder per time integration scheme: the
                   energy-momentum scheme (ours: over every step the change of
                   kinetic + gravity + strain + contact energy equals the work of the
                   torque up to the Newton tolerance, so impacts neither gain nor lose
                   energy) and the seed's Newmark rule (for the benchmarks only);
-* fem_newton.py   the nonlinear solve of a step with its held Jacobian;
-* fem_head.py     the head boundary's sample points: gap, contact set, meshed-wall contact;
-* fem_outputs.py  the outputs of a state.
+* fem/newton.py   the nonlinear solve of a step with its held Jacobian;
+* fem/head.py     the head boundary's sample points: gap, contact set, meshed-wall contact;
+* fem/outputs.py  the outputs of a state.
 
-Step sizes come from stepping.py (or seed_stepping.py for the seed's schemes).
+Step sizes come from stepping.py (or fem/seed_stepping.py for the seed's schemes).
 """
 
 from __future__ import annotations
@@ -41,11 +41,11 @@ from ..protocol import (
 )
 from ..scene import Scene, validate
 from ..stepping import StepControl
-from .fem_head import HeadBoundary
-from .fem_newton import HeldJacobianNewton, JacobianPoint, Turn
-from .fem_outputs import FemOutputs
-from .fem_schemes import scheme_for, step_inputs
-from .fem_space import FemState, fem_space
+from .head import HeadBoundary
+from .newton import HeldJacobianNewton, JacobianPoint, Turn
+from .outputs import FemOutputs
+from .schemes import scheme_for, step_inputs
+from .space import FemState, fem_space
 
 # Compliant bodies: a step whose energy balance misses by more than this share of the energy in
 # motion is rejected and halved. The discrete gradient's Gauss rule is exact only to the strain
