@@ -256,8 +256,10 @@ class PendulumSlave(Fmi2Slave):
         return _error_reporter(self.resources)
 
     # ------------------------------------------------- guarded variable access
-    # pythonfmu raises (fmi2Fatal) on an unknown value reference, a variable of another type or
-    # setting an output; these answer fmi2Error with a log message instead and change nothing.
+    # The FMU's binary checks every value reference, type and causality before calling these
+    # (shim/variables.c); without it (pythonfmu's binary: Windows) pythonfmu would raise (fmi2Fatal)
+    # on an unknown value reference, a variable of another type or setting an output, so these
+    # answer fmi2Error with a log message instead and change nothing.
     def _variables(
         self, vrs: list[int], kind: type[ScalarVariable], call: str, setting: bool = False
     ) -> list[int] | None:
@@ -511,9 +513,10 @@ class PendulumSlave(Fmi2Slave):
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
         """Restore a state of this FMU; anything else is refused (fmi2Error, state unchanged), never
-        raised: an exception would be fmi2Fatal. Into an initialised instance only a state taken with
-        the same parameters; into one not yet initialised any state of this FMU, whose parameters
-        then build the model (the initialisation calls that follow keep it)."""
+        raised (pythonfmu's binary, on Windows, makes an exception fmi2Fatal). Into an initialised
+        instance only a state taken with the same parameters; into one not yet initialised any state
+        of this FMU, whose parameters then build the model (the initialisation calls that follow keep
+        it)."""
         problem = self._state_mismatch(state)
         model = self.model
         if problem is None and state["model"] is not None:
