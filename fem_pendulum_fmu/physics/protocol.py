@@ -1,7 +1,7 @@
 """The one protocol every fidelity implements, and the plain data it exchanges.
 
 The FMI slave and the masters only ever see `PendulumModel`, `Outputs` and
-`ModelState`; which physics runs behind them is chosen by `models.create`.
+`ModelState`; which physics runs behind them is chosen by `fidelity.create`.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 import io
 import json
 import math
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -142,27 +142,41 @@ def check_advance_args(time: float, t_end: float, torque: float) -> None:
         raise ValueError(f"t_end = {t_end!r} is not allowed: it must be a finite time after the current time {time!r}")
 
 
-def restored_min_gap(state: ModelState, outputs: Outputs) -> float:
-    """The gap_min output a model had when `state` was taken (its scalar "last_min_gap"; a state
-    stored without one: the gap of `outputs`, those of the restored state)."""
-    return float(state.scalars.get("last_min_gap", outputs.gap))
+ADVANCE_SUMMARY_KEYS = {
+    "substeps": "substeps",
+    "min_gap": "last_min_gap",
+    "contact_force_max": "last_contact_force_max",
+    "contact_impulse": "last_contact_impulse",
+    "contact_hold": "last_contact_hold",
+}
+"""The outputs that describe the last advance rather than the state, and the ModelState scalars that
+carry them. Every fidelity's state has them (written once, by `model_state`), and
+`restore_advance_summary` puts them back, so a restored model reports what the original did;
+contact_hold also steers the next advance's steps, so a restored state steps exactly as the original."""
 
 
-LAST_ADVANCE_FIELDS = ("contact_force_max", "contact_impulse", "contact_hold")
-"""Outputs that describe the last advance rather than the state: a state carries them as scalars
-"last_<name>" and set_state restores them (as restored_min_gap does gap_min). contact_hold also
-steers the next advance's steps, so a restored state steps exactly as the original did."""
+def model_state(
+    fidelity: str, time: float, outputs: Outputs, scalars: dict[str, float], arrays: dict[str, np.ndarray]
+) -> ModelState:
+    """A ModelState of a fidelity's own scalars and arrays plus the advance summary of `outputs`."""
+    summary = {key: float(getattr(outputs, name)) for name, key in ADVANCE_SUMMARY_KEYS.items()}
+    return ModelState(fidelity, float(time), {**scalars, **summary}, arrays)
 
 
-def last_advance_scalars(outputs: Outputs) -> dict[str, float]:
-    """The scalars of a ModelState that keep the LAST_ADVANCE_FIELDS of `outputs`."""
-    return {f"last_{name}": float(getattr(outputs, name)) for name in LAST_ADVANCE_FIELDS}
+def restore_advance_summary(state: ModelState, outputs: Outputs) -> Outputs:
+    """Set the advance summary of `outputs`, computed afresh from a restored state, to the one `state`
+    was taken with (a state without it: no steps, the gap as min_gap, no contact)."""
+    sc = state.scalars
+    outputs.substeps = int(sc.get("substeps", 0))
+    outputs.min_gap = float(sc.get("last_min_gap", outputs.gap))
+    for name in ("contact_force_max", "contact_impulse", "contact_hold"):
+        setattr(outputs, name, float(sc.get(ADVANCE_SUMMARY_KEYS[name], 0.0)))
+    return outputs
 
 
-def restore_last_advance(state: ModelState, outputs: Outputs) -> None:
-    """Set the LAST_ADVANCE_FIELDS of `outputs` to those `state` was taken with (0 if it has none)."""
-    for name in LAST_ADVANCE_FIELDS:
-        setattr(outputs, name, float(state.scalars.get(f"last_{name}", 0.0)))
-
-
-OUTPUT_FIELDS = tuple(f.name for f in fields(Outputs))
+def check_state_fidelity(state: ModelState, fidelity: str) -> None:
+    """ValueError unless `state` was taken from a model of `fidelity` at a finite time."""
+    if state.fidelity != fidelity:
+        raise ValueError(f"state of fidelity {state.fidelity!r} does not fit a {fidelity} model")
+    if not math.isfinite(state.time):
+        raise ValueError(f"{fidelity} model state has the non-finite time {state.time!r}")

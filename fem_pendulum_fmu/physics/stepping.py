@@ -218,12 +218,31 @@ def check_substeps(control: StepControl, substeps: int, t: float, t_end: float) 
         )
 
 
+def finish_advance(outputs: Outputs, min_gap: float, contact: ContactTally) -> float:
+    """The end of every fidelity's advance: the outputs at its end get the advance's smallest gap
+    (`min_gap` from its internal steps, or the end's gap if smaller) and its contact tally; returns
+    that smallest gap."""
+    gap = outputs.gap
+    outputs.min_gap = min_gap = min_gap if min_gap < gap else gap
+    contact.report(outputs)
+    return min_gap
+
+
+def free_flight_tally(hold: float, dt: float) -> ContactTally:
+    """The contact tally of an advance of dt known to stay off the wall from a contact's hold `hold`:
+    no force, no impulse, the hold shrinking as `_hold_after` shrinks it."""
+    return ContactTally(hold=_hold_after(hold, 0.0, 0.0, dt))
+
+
 def _hold_after(hold: float, gap0: float, gap1: float, dt: float) -> float:
     """The hold after a step from gap0 to gap1: plus its time in contact, minus HOLD_DECAY of its time
     outside, the crossing of a step that enters or leaves contact placed by the gaps (linearly)."""
     if gap0 < 0.0 and gap1 < 0.0:
         return hold + dt
-    inside = dt * (gap1 / (gap1 - gap0) if gap1 < 0.0 else gap0 / (gap0 - gap1) if gap0 < 0.0 else 0.0)
+    if gap0 >= 0.0 and gap1 >= 0.0:
+        decayed = hold - HOLD_DECAY * dt
+        return decayed if decayed > 0.0 else 0.0
+    inside = dt * (gap1 / (gap1 - gap0) if gap1 < 0.0 else gap0 / (gap0 - gap1))
     return max(hold + inside - HOLD_DECAY * (dt - inside), 0.0)
 
 
@@ -337,9 +356,7 @@ class SteppedModel(Generic[X]):
         self._x = result.state
         self.time = float(t_end)
         self._outputs = self._compute_outputs(self._x, self.time, result.substeps)
-        self.last_min_gap = min(result.min_gap, self._outputs.gap)
-        self._outputs.min_gap = self.last_min_gap
-        result.contact.report(self._outputs)
+        self.last_min_gap = finish_advance(self._outputs, result.min_gap, result.contact)
         return self._outputs
 
     def outputs(self) -> Outputs:

@@ -35,12 +35,11 @@ from ..protocol import (
     Outputs,
     StepFailed,
     check_advance_args,
-    last_advance_scalars,
-    restore_last_advance,
-    restored_min_gap,
+    model_state,
+    restore_advance_summary,
 )
 from ..scene import Scene, validate
-from ..stepping import StepControl
+from ..stepping import StepControl, finish_advance
 from .head import HeadBoundary
 from .newton import HeldJacobianNewton, JacobianPoint, Turn
 from .outputs import FemOutputs
@@ -231,10 +230,8 @@ class FemModel:
             raise
         self._state = result.state
         self.time = float(t_end)
-        self.last_min_gap = result.min_gap
         self._outputs = self.measures.of(self._state, self.time, result.substeps)
-        self._outputs.min_gap = min(result.min_gap, self._outputs.gap)
-        result.contact.report(self._outputs)
+        self.last_min_gap = finish_advance(self._outputs, result.min_gap, result.contact)
         return self._outputs
 
     def outputs(self) -> Outputs:
@@ -245,12 +242,7 @@ class FemModel:
 
     def get_state(self) -> ModelState:
         s = self._state
-        scalars = {
-            "torque_work": s.torque_work,
-            "substeps": float(self._outputs.substeps),
-            "last_min_gap": self.last_min_gap,
-            **last_advance_scalars(self._outputs),
-        }
+        scalars = {"torque_work": s.torque_work}
         arrays = {"u": s.u.copy(), "v": s.v.copy(), "lam": s.lam.copy()}
         if s.a is not None:
             arrays["a"] = s.a.copy()
@@ -260,7 +252,7 @@ class FemModel:
             jp = self.newton.held
             scalars.update(jac_dt=jp.dt, jac_torque=jp.torque, jac_dt_factorised=jp.dt_factorised)
             arrays.update(jac_u0=jp.u0.copy(), jac_v0=jp.v0.copy(), jac_w=jp.w.copy(), jac_active=jp.active.copy())
-        return ModelState("fem", self.time, scalars, arrays)
+        return model_state(self.fidelity, self.time, self._outputs, scalars, arrays)
 
     def set_state(self, state: ModelState) -> None:
         nV = self.space.nV
@@ -293,6 +285,5 @@ class FemModel:
             )
         self.newton.ready = False
         self.time = state.time
-        self._outputs = self.measures.of(self._state, self.time, int(sc.get("substeps", 0)))
-        self.last_min_gap = self._outputs.min_gap = restored_min_gap(state, self._outputs)
-        restore_last_advance(state, self._outputs)
+        self._outputs = restore_advance_summary(state, self.measures.of(self._state, self.time, 0))
+        self.last_min_gap = self._outputs.min_gap

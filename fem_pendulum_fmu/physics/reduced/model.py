@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 
 from ..contact_time import ClosestPoint, contact_time_scale, effective_mass
-from ..protocol import BodyField, ModelState, Outputs, last_advance_scalars, restore_last_advance, restored_min_gap
+from ..protocol import BodyField, ModelState, Outputs, check_state_fidelity, model_state, restore_advance_summary
 from ..rigid import arc_contact as rigid_contact
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
@@ -715,37 +715,22 @@ class ReducedModel(SteppedModel[tuple]):
     # ---------------------------------------------------------------- protocol
     def get_state(self) -> ModelState:
         z, p, work = self._x
-        return ModelState(
-            self.fidelity,
-            self.time,
-            {
-                "torque_work": work,
-                "substeps": float(self._outputs.substeps),
-                "last_min_gap": self.last_min_gap,
-                **last_advance_scalars(self._outputs),
-            },
-            {"z": z.copy(), "p": p.copy()},
+        return model_state(
+            self.fidelity, self.time, self._outputs, {"torque_work": work}, {"z": z.copy(), "p": p.copy()}
         )
 
     def set_state(self, state: ModelState) -> None:
-        if state.fidelity != self.fidelity:
-            raise ValueError(f"state of fidelity {state.fidelity!r} does not fit a reduced model")
+        check_state_fidelity(state, self.fidelity)
         z, p = state.arrays.get("z"), state.arrays.get("p")
         if z is None or p is None or z.shape != (self.n,) or p.shape != (self.n,) or "torque_work" not in state.scalars:
             raise ValueError(f"state does not fit this reduced model ({self.m} modes: z and p of length {self.n})")
         x = (z.astype(float).copy(), p.astype(float).copy(), float(state.scalars["torque_work"]))
-        if not (
-            np.all(np.isfinite(x[0]))
-            and np.all(np.isfinite(x[1]))
-            and math.isfinite(x[2])
-            and math.isfinite(state.time)
-        ):
+        if not (np.all(np.isfinite(x[0])) and np.all(np.isfinite(x[1])) and math.isfinite(x[2])):
             raise ValueError("reduced model state has non-finite values")
         self._x = x
         self.time = float(state.time)
-        self._outputs = self._compute_outputs(x, self.time, int(state.scalars.get("substeps", 0)))
-        self.last_min_gap = self._outputs.min_gap = restored_min_gap(state, self._outputs)
-        restore_last_advance(state, self._outputs)
+        self._outputs = restore_advance_summary(state, self._compute_outputs(x, self.time, 0))
+        self.last_min_gap = self._outputs.min_gap
 
     # ----------------------------------------------------------------- outputs
     def _compute_outputs(self, x: tuple, t: float, substeps: int) -> Outputs:

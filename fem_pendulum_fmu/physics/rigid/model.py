@@ -31,12 +31,12 @@ from ..protocol import (
     ModelState,
     Outputs,
     check_advance_args,
-    last_advance_scalars,
-    restore_last_advance,
-    restored_min_gap,
+    check_state_fidelity,
+    model_state,
+    restore_advance_summary,
 )
 from ..scene import Scene, refuse_deformable_wall, validate
-from ..stepping import HOLD_DECAY, StepControl, SteppedModel
+from ..stepping import StepControl, SteppedModel, finish_advance, free_flight_tally
 from . import arc_contact as rigid_contact
 
 if TYPE_CHECKING:
@@ -375,17 +375,16 @@ class RigidModel(SteppedModel[tuple]):
         )
         if gap1 is None:  # the arc's end is nearest: signed_gap's exact outside distance
             gap1 = rigid_contact.signed_gap(self.arc(q1), self.block)[0]
-        # as the stepper reports it: the smallest gap at the step's ends (only the end's without a wall),
-        # no contact force or impulse, the contact's hold shrinking
-        min_gap = gap0 if contact_on and gap0 < gap1 else gap1
-        hold = last.contact_hold - HOLD_DECAY * dt
-        out = self._free_outputs(x, cos_q1, t_end, gap1, min_gap, hold if hold > 0.0 else 0.0)
-        self._x, self.time, self._outputs, self.last_min_gap = x, t_end, out, min_gap
+        out = self._free_outputs(x, cos_q1, t_end, gap1)
+        # as the stepper reports it: the smallest gap at the step's ends (only the end's without a wall)
+        min_gap = gap0 if contact_on else math.inf
+        self.last_min_gap = finish_advance(out, min_gap, free_flight_tally(last.contact_hold, dt))
+        self._x, self.time, self._outputs = x, t_end, out
         return out
 
-    def _free_outputs(self, x: tuple, cos_q: float, t: float, gap: float, min_gap: float, hold: float) -> Outputs:
+    def _free_outputs(self, x: tuple, cos_q: float, t: float, gap: float) -> Outputs:
         """`_compute_outputs` of a free-flight step's end x (off the block, at gap `gap`; cos_q the cosine
-        of its angle), with the advance's min_gap and contact_hold and no contact force or impulse."""
+        of its angle), no contact force; the advance's summary is left to `finish_advance`."""
         q, w, work = x
         kinetic = 0.5 * self.inertia * w * w
         potential = -self._mgd * cos_q
@@ -393,11 +392,8 @@ class RigidModel(SteppedModel[tuple]):
         # theta wrapped as math.remainder(q, 2 pi) does, which leaves |q| < pi as it is (a call spared)
         theta = q if -math.pi < q < math.pi else math.remainder(q, TWO_PI)
         # positional, in the order of Outputs' fields: time, theta, omega, gap, contact_force, kinetic,
-        # potential, strain, contact, total, torque_work, von_mises_max, substeps, min_gap,
-        # contact_force_max, contact_impulse, contact_hold
-        return Outputs(
-            t, theta, w, gap, 0.0, kinetic, potential, 0.0, 0.0, total, work, 0.0, 1, min_gap, 0.0, 0.0, hold,
-        )  # fmt: skip
+        # potential, strain, contact, total, torque_work, von_mises_max, substeps
+        return Outputs(t, theta, w, gap, 0.0, kinetic, potential, 0.0, 0.0, total, work, 0.0, 1)
 
     def gap_and_rate(self, x: tuple) -> tuple[float, float]:
         """Signed gap and its rate for the stepper; (inf, 0) when there is no contact law to resolve."""
@@ -436,34 +432,21 @@ class RigidModel(SteppedModel[tuple]):
     # ------------------------------------------------------------- protocol
     def get_state(self) -> ModelState:
         q, w, work = self._x
-        return ModelState(
-            self.fidelity,
-            self.time,
-            {
-                "theta": q,
-                "omega": w,
-                "torque_work": work,
-                "substeps": float(self._outputs.substeps),
-                "last_min_gap": self.last_min_gap,
-                **last_advance_scalars(self._outputs),
-            },
-        )
+        return model_state(self.fidelity, self.time, self._outputs, {"theta": q, "omega": w, "torque_work": work}, {})
 
     def set_state(self, state: ModelState) -> None:
-        if state.fidelity != self.fidelity:
-            raise ValueError(f"state of fidelity {state.fidelity!r} does not fit a rigid model")
+        check_state_fidelity(state, self.fidelity)
         sc = state.scalars
         missing = [k for k in ("theta", "omega", "torque_work") if k not in sc]
         if missing:
             raise ValueError(f"rigid model state lacks {', '.join(missing)}")
         x = (float(sc["theta"]), float(sc["omega"]), float(sc["torque_work"]))
-        if not all(math.isfinite(v) for v in x) or not math.isfinite(state.time):
-            raise ValueError(f"rigid model state has non-finite values: time {state.time!r}, {x!r}")
+        if not all(math.isfinite(v) for v in x):
+            raise ValueError(f"rigid model state has non-finite values: {x!r}")
         self._x = x
         self.time = float(state.time)
-        self._outputs = self._compute_outputs(x, self.time, int(sc.get("substeps", 0)))
-        self.last_min_gap = self._outputs.min_gap = restored_min_gap(state, self._outputs)
-        restore_last_advance(state, self._outputs)
+        self._outputs = restore_advance_summary(state, self._compute_outputs(x, self.time, 0))
+        self.last_min_gap = self._outputs.min_gap
 
     def fields(self) -> list[BodyField]:
         """Nodal fields of the rigid motion on the FE model's mesh of the pendulum: displacement and
