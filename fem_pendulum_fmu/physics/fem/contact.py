@@ -14,7 +14,6 @@ contact neither creates nor destroys energy, whatever the step size.
 
 from __future__ import annotations
 
-import numpy as np
 from ngsolve import CF, CoefficientFunction, IfPos, InnerProduct
 
 from ..scene import WallBlock
@@ -64,19 +63,3 @@ def discrete_gradient_force(
     len2 = InnerProduct(dp, dp)
     correction = IfPos(len2 - _EPS_LEN, (jump - InnerProduct(gm, dp)) / IfPos(len2 - _EPS_LEN, len2, 1.0), 0.0) * dp
     return -phi_slope * (gm + correction)
-
-
-def box_signed_distance(px: np.ndarray, py: np.ndarray, block: WallBlock) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Signed distance of points to the block (negative inside) and its unit gradient (nx, ny)."""
-    cx, cy = 0.5 * (block.x_min + block.x_max), 0.5 * (block.y_min + block.y_max)
-    hx, hy = 0.5 * (block.x_max - block.x_min), 0.5 * (block.y_max - block.y_min)
-    qx, qy = np.abs(px - cx) - hx, np.abs(py - cy) - hy
-    ox, oy = np.maximum(qx, 0.0), np.maximum(qy, 0.0)
-    outside = np.hypot(ox, oy)
-    inside = np.minimum(np.maximum(qx, qy), 0.0)
-    dist = outside + inside
-    sx, sy = np.sign(px - cx), np.sign(py - cy)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        nx = np.where(outside > 0, ox / np.where(outside > 0, outside, 1.0), (qx >= qy).astype(float))
-        ny = np.where(outside > 0, oy / np.where(outside > 0, outside, 1.0), (qy > qx).astype(float))
-    return dist, nx * sx, ny * sy

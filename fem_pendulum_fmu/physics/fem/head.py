@@ -15,9 +15,9 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse
 
+from ..box import box_signed_distance
 from ..contact_time import ClosestPoint
 from ..fe_boundary import head_points
-from . import contact as wall_contact
 from .space import FemSpace, FemState
 from .wall import WALL_SEARCH_DISTANCE, WallFace
 
@@ -76,7 +76,7 @@ class HeadBoundary:
             if known[0] is u:
                 return known[1:]
         p = self.positions(u)
-        dist, nx, ny = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
+        dist, nx, ny = box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
         self._distances = [(u, p, dist, nx, ny), *self._distances[:1]]
         return p, dist, nx, ny
 
@@ -117,7 +117,7 @@ class HeadBoundary:
         if self._face is not None:
             p = self.positions(xs.u)
             p = p - self._face.shift(p, xs.u, self._space.scene.block)
-            dist, nx, ny = wall_contact.box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
+            dist, nx, ny = box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
         else:
             p, dist, nx, ny = self.distances(xs.u)
         i = int(np.argmin(dist))

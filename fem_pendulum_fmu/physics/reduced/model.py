@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from ..box import Box
 from ..contact_time import ClosestPoint, contact_time_scale, effective_mass
 from ..protocol import BodyField, ModelState, Outputs, check_state_fidelity, model_state, restore_advance_summary
 from ..rigid import arc_contact as rigid_contact
@@ -122,8 +123,7 @@ class ReducedModel(SteppedModel[tuple]):
         self._hk = scene.pendulum.thickness * scene.contact.stiffness
         self.contact_on = scene.wall.kind == "rigid" and scene.contact.stiffness > 0.0
         self.block = blk = scene.block
-        self._block_centre = (0.5 * (blk.x_min + blk.x_max), 0.5 * (blk.y_min + blk.y_max))
-        self._block_half = (0.5 * (blk.x_max - blk.x_min), 0.5 * (blk.y_max - blk.y_min))
+        self._box = Box.of(blk)
         self._Q = np.concatenate([[1.0], b.torque_modes])  # generalised force of a unit torque
         self._head_flat = b.head_phi.reshape(-1, self.m)  # (2P, m): x and y rows interleaved
         self._phi_peak = np.max(np.linalg.norm(b.head_phi, axis=1), axis=0)  # (m,) largest head displacement per mode
@@ -316,7 +316,7 @@ class ReducedModel(SteppedModel[tuple]):
 
     def _evaluate_contact(self, z: np.ndarray) -> tuple:
         """_contact's terms summed over the head points inside the block. Inside, the signed distance
-        is max(qx, qy) < 0 and its gradient the nearer face's normal (contact.box_signed_distance's
+        is max(qx, qy) < 0 and its gradient the nearer face's normal (box.Box's
         values for such points, computed here without its general case)."""
         if self._kernel is not None:
             terms = self._kernel.contact(z)
@@ -329,8 +329,8 @@ class ReducedModel(SteppedModel[tuple]):
             return self._no_contact
         inside = candidates[local_inside]
         pts = world[local_inside]
-        ex, ey = pts[:, 0] - self._block_centre[0], pts[:, 1] - self._block_centre[1]
-        qx, qy = np.abs(ex) - self._block_half[0], np.abs(ey) - self._block_half[1]
+        ex, ey = pts[:, 0] - self._box.cx, pts[:, 1] - self._box.cy
+        qx, qy = np.abs(ex) - self._box.hx, np.abs(ey) - self._box.hy
         x_face = qx >= qy
         depth = -np.maximum(qx, qy)
         normal = np.empty_like(pts)  # outward: the force direction
@@ -614,7 +614,7 @@ class ReducedModel(SteppedModel[tuple]):
         points, world, dist = self._near_points(z, SCALE_BAND)
         i = int(np.argmin(dist))
         px, py = float(world[i, 0]), float(world[i, 1])
-        n_x, n_y = self._box_normal(px, py)
+        n_x, n_y = self._box.normal(px, py)
         v = self._velocity(x)
         s, c = math.sin(z[0]), math.cos(z[0])
         ex, ey = self.basis.head_phi[points[i]] @ v[1:]
@@ -623,18 +623,6 @@ class ReducedModel(SteppedModel[tuple]):
         result = ClosestPoint(world, dist, i, (n_x, n_y), rate)
         self._closest_memo = (x, result, points)  # the stepper asks for the gap, then the scales, of one state
         return result
-
-    def _box_normal(self, px: float, py: float) -> tuple[float, float]:
-        """The signed distance's unit gradient at one point, as contact.box_signed_distance gives it."""
-        cx, cy = self._block_centre
-        qx, qy = abs(px - cx) - self._block_half[0], abs(py - cy) - self._block_half[1]
-        ox, oy = max(qx, 0.0), max(qy, 0.0)
-        outside = float(np.hypot(ox, oy))  # numpy's, to the last bit
-        if outside > 0.0:
-            nx, ny = ox / outside, oy / outside
-        else:
-            nx, ny = float(qx >= qy), float(qy > qx)
-        return nx * ((px > cx) - (px < cx)), ny * ((py > cy) - (py < cy))
 
     def _near_points(self, z: np.ndarray, band: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(indices, positions (k, 2), signed distances to the block (k,)) of the head points, in their
@@ -660,10 +648,8 @@ class ReducedModel(SteppedModel[tuple]):
         return points, (self._head_X[points] + displacement) @ rotation
 
     def _signed_distances(self, world: np.ndarray) -> np.ndarray:
-        """Signed distances of points (k, 2) to the block, as contact.box_signed_distance computes them."""
-        qx = np.abs(world[:, 0] - self._block_centre[0]) - self._block_half[0]
-        qy = np.abs(world[:, 1] - self._block_centre[1]) - self._block_half[1]
-        return np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0)) + np.minimum(np.maximum(qx, qy), 0.0)
+        """Signed distances of points (k, 2) to the block."""
+        return self._box.distances(world[:, 0], world[:, 1])
 
     def _gap(self, z: np.ndarray) -> float:
         """The smallest signed distance of the head points to the block (the gap output)."""
