@@ -1,7 +1,66 @@
 """fem_pendulum_fmu: a nonlinear finite-element pendulum that hits a wall, as an FMI 2.0 co-simulation FMU.
 
-The physics (scene, models, stepping) knows nothing of FMI; `slave` and
-`build_fmu.py` wrap it. Start with `fem_pendulum_fmu.physics.fidelity.create(scene)`.
+The physics (fem_pendulum_fmu/physics/) knows nothing of FMI; fem_pendulum_fmu/fmi/ wraps it into the
+FMU and fem_pendulum_fmu/masters/ drives FMUs. The public API of the physics is here, flat:
+
+    from fem_pendulum_fmu import create, compliant
+    model = create(compliant())
+    out = model.advance(0.5, torque=0.0)
+
+Its names load on first use (the command line and the FMU's start-up do not pay for numpy here).
 """
 
-__version__ = "0.1.0"
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+from .version import __version__
+
+_EXPORTS = {
+    "create": "physics.fidelity",
+    "Scene": "physics.scene",
+    "stiff": "physics.scene",
+    "compliant": "physics.scene",
+    "PRESETS": "physics.scene",
+    "problems": "physics.scene",
+    "validate": "physics.scene",
+    "Outputs": "physics.protocol",
+    "ModelState": "physics.protocol",
+    "BodyField": "physics.protocol",
+    "PendulumModel": "physics.protocol",
+    "StepFailed": "physics.protocol",
+}
+__all__ = [
+    "BodyField",
+    "ModelState",
+    "Outputs",
+    "PRESETS",
+    "PendulumModel",
+    "Scene",
+    "StepFailed",
+    "__version__",
+    "compliant",
+    "create",
+    "problems",
+    "stiff",
+    "validate",
+]
+
+if TYPE_CHECKING:
+    from .physics.fidelity import create
+    from .physics.protocol import BodyField, ModelState, Outputs, PendulumModel, StepFailed
+    from .physics.scene import PRESETS, Scene, compliant, problems, stiff, validate
+
+
+def __getattr__(name: str) -> Any:
+    """The public names, imported from their modules when first asked for."""
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'fem_pendulum_fmu' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -52,7 +52,7 @@ def check_physics(stdout: str) -> None:
 # a word that identifies a block -> the check of its output
 CHECKS: dict[str, Callable[[str], None]] = {
     "simulate_fmu(": check_fmpy_api,
-    "fem_pendulum_fmu.physics.fidelity import create": check_physics,
+    "from fem_pendulum_fmu import compliant, create": check_physics,
 }
 
 

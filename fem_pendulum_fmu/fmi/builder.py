@@ -150,7 +150,8 @@ def stage_package(target: Path) -> None:
     """Copy what the FMU runs (the package's physics and FMI layer, not the masters) to `target`."""
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "shim", "builder.py", "preflight.py")
     target.mkdir(parents=True)
-    shutil.copy2(PACKAGE_DIR / "__init__.py", target / "__init__.py")
+    for name in ("__init__.py", "version.py"):
+        shutil.copy2(PACKAGE_DIR / name, target / name)
     for sub in ("physics", "fmi"):
         shutil.copytree(PACKAGE_DIR / sub, target / sub, ignore=ignore)
 
@@ -159,7 +160,7 @@ def build_pendulum(output: Path) -> Path:
     """Build FemPendulum.fmu at `output`, validated."""
     from pythonfmu.builder import FmuBuilder
 
-    from .. import __version__
+    from ..version import __version__
 
     xml = render(str(uuid.uuid4()), now_iso(), __version__)
     output = Path(output).resolve()

@@ -27,7 +27,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from .. import __version__
+from ..version import __version__
 
 LOG = logging.getLogger("fem_pendulum_fmu")
 ENV = "FEM_PENDULUM_CACHE"

@@ -2,8 +2,8 @@
 
 Plain frozen dataclasses, one per group, so that a parameter's FMI name
 ("pendulum.E", "solver.max_step") is the attribute path into a `Scene`.
-`validate` rejects every out-of-range value with a ValueError that names the
-parameter, its value and what is allowed.
+`problems` lists every out-of-range value, naming the parameter, its value and
+what is allowed; `validate` raises one ValueError that lists them all.
 """
 
 from __future__ import annotations
@@ -12,11 +12,14 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, get_args
 
-WALL_KINDS = ("rigid", "deformable", "none")
-FIDELITIES = ("auto", "rigid", "reduced", "fem")
-SCHEMES = ("energy_momentum", "newmark_fixed", "newmark_gap_rule")  # the Newmark ones: the seed's, for benchmarks
+WallKind = Literal["rigid", "deformable", "none"]
+Fidelity = Literal["auto", "rigid", "reduced", "fem"]
+Scheme = Literal["energy_momentum", "newmark_fixed", "newmark_gap_rule"]  # the Newmark ones: the seed's, for benchmarks
+WALL_KINDS: tuple[WallKind, ...] = get_args(WallKind)
+FIDELITIES: tuple[Fidelity, ...] = get_args(Fidelity)
+SCHEMES: tuple[Scheme, ...] = get_args(Scheme)
 
 
 @dataclass(frozen=True)
@@ -65,7 +68,7 @@ class Material:
 
 @dataclass(frozen=True)
 class Wall:
-    kind: str = "rigid"
+    kind: WallKind = "rigid"
     E: float = 2.1e11
     nu: float = 0.3
     rho: float = 7850.0
@@ -78,7 +81,7 @@ class Contact:
 
 @dataclass(frozen=True)
 class ModelSettings:
-    fidelity: str = "fem"
+    fidelity: Fidelity = "fem"
     mesh_size: float = 0.03
     order: int = 0  # AUTO_ORDER: element_order() picks it
     compute_stress: bool = False
@@ -91,7 +94,7 @@ class SolverSettings:
     max_step: float = 2e-3  # largest internal step in free flight, s
     tolerance: float = 1e-3  # accuracy target of step control (see stepping.py)
     max_substeps: int = 0  # internal steps allowed per doStep (advance); 0 = no limit
-    scheme: str = "energy_momentum"  # fem only: or the seed's Newmark schemes (fem/seed_stepping.py)
+    scheme: Scheme = "energy_momentum"  # fem only: or the seed's Newmark schemes (fem/seed_stepping.py)
 
 
 @dataclass(frozen=True)
@@ -197,7 +200,7 @@ _INT_RANGES = {
     "model.modes": (1, 200),  # order 1: see docs/fem.md
     "solver.max_substeps": (0, 10**9),
 }
-_CHOICES = {"wall.kind": WALL_KINDS, "model.fidelity": FIDELITIES, "solver.scheme": SCHEMES}
+_CHOICES: dict[str, tuple[str, ...]] = {"wall.kind": WALL_KINDS, "model.fidelity": FIDELITIES, "solver.scheme": SCHEMES}
 
 
 def _interval(lo: float, hi: float, lo_in: bool, hi_in: bool) -> str:
@@ -205,51 +208,83 @@ def _interval(lo: float, hi: float, lo_in: bool, hi_in: bool) -> str:
 
 
 def validate(scene: Scene) -> Scene:
-    """Check every parameter; raise ValueError naming the first bad one. Returns the scene with
+    """Raise one ValueError listing every bad parameter (`problems`), else return the scene with
     model.order resolved (element_order): every model is built from what this returns."""
+    found = problems(scene)
+    if found:
+        raise ValueError("; ".join(found) if len(found) == 1 else f"{len(found)} bad parameters: " + "; ".join(found))
+    return scene.with_values({"model.order": element_order(scene)})
+
+
+def problems(scene: Scene) -> list[str]:
+    """Every bad parameter of `scene`, each a sentence naming it, its value and what is allowed
+    (empty for a good scene). The memory estimate is checked only once the rest is good."""
+    found = _range_problems(scene) + _choice_problems(scene)
+    if found:
+        return found
+    resolved = scene.with_values({"model.order": element_order(scene)})
+    memory = _memory_problem(resolved)
+    return [memory] if memory else []
+
+
+def _range_problems(scene: Scene) -> list[str]:
+    """The real and integer parameters outside their ranges."""
+    found = []
     for name, (lo, hi, lo_in, hi_in) in _RANGES.items():
         value = get_path(scene, name)
         ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
         if ok:
             ok = (value >= lo if lo_in else value > lo) and (value <= hi if hi_in else value < hi)
         if not ok:
-            raise ValueError(
+            found.append(
                 f"parameter {name} = {value!r} is out of range: allowed is a finite number in "
                 f"{_interval(lo, hi, lo_in, hi_in)}"
             )
-    for name, (lo, hi) in _INT_RANGES.items():
+    for name, (ilo, ihi) in _INT_RANGES.items():
         value = get_path(scene, name)
-        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-            raise ValueError(f"parameter {name} = {value!r} is out of range: allowed is an integer in [{lo}, {hi}]")
+        if isinstance(value, bool) or not isinstance(value, int) or not ilo <= value <= ihi:
+            found.append(f"parameter {name} = {value!r} is out of range: allowed is an integer in [{ilo}, {ihi}]")
     order = scene.model.order
     if isinstance(order, bool) or not isinstance(order, int) or not (order == AUTO_ORDER or 2 <= order <= 5):
-        raise ValueError(
+        found.append(
             f"parameter model.order = {order!r} is out of range: allowed is an integer in [2, 5], "
             f"or {AUTO_ORDER} (auto: {SOFT_ORDER} for a soft pendulum, E / rho <= {SOFT_LIMIT:g} m^2/s^2, "
             f"else {STIFF_ORDER})"
         )
+    return found
+
+
+def _choice_problems(scene: Scene) -> list[str]:
+    """The vocabularies, the flag and the combinations that are not allowed."""
+    found = []
     for name, choices in _CHOICES.items():
         value = get_path(scene, name)
         if value not in choices:
-            raise ValueError(f"parameter {name} = {value!r} is not allowed: choose one of {', '.join(choices)}")
+            found.append(f"parameter {name} = {value!r} is not allowed: choose one of {', '.join(choices)}")
     if not isinstance(scene.model.compute_stress, bool):
-        raise ValueError(f"parameter model.compute_stress = {scene.model.compute_stress!r}: allowed is true or false")
+        found.append(f"parameter model.compute_stress = {scene.model.compute_stress!r}: allowed is true or false")
     if scene.solver.scheme != "energy_momentum" and scene.model.fidelity != "fem":
-        raise ValueError(
+        found.append(
             f"parameter solver.scheme = {scene.solver.scheme!r} is an option of the fem fidelity only: "
             f"set model.fidelity = fem (it is {scene.model.fidelity!r}) or solver.scheme = energy_momentum"
         )
-    scene = scene.with_values({"model.order": element_order(scene)})
-    if scene.model.fidelity != "rigid":  # the rigid fidelity meshes nothing with these settings
-        need, have = mesh_memory_estimate(scene), physical_memory()
-        if need > have:
-            raise ValueError(
-                f"parameters model.mesh_size = {scene.model.mesh_size!r} with model.order = {scene.model.order} "
-                f"would need about {need / 2**30:.3g} GiB (estimate), more than this machine's "
-                f"{have / 2**30:.3g} GiB: allowed are mesh sizes down to about "
-                f"{smallest_mesh_size(scene, have):.2g} m at this order"
-            )
-    return scene
+    return found
+
+
+def _memory_problem(scene: Scene) -> str | None:
+    """The mesh a meshed fidelity would not fit in this machine's memory (the rigid fidelity meshes
+    nothing with these settings); None when it fits."""
+    if scene.model.fidelity == "rigid":
+        return None
+    need, have = mesh_memory_estimate(scene), physical_memory()
+    if need <= have:
+        return None
+    return (
+        f"parameters model.mesh_size = {scene.model.mesh_size!r} with model.order = {scene.model.order} "
+        f"would need about {need / 2**30:.3g} GiB (estimate), more than this machine's "
+        f"{have / 2**30:.3g} GiB: allowed are mesh sizes down to about "
+        f"{smallest_mesh_size(scene, have):.2g} m at this order"
+    )
 
 
 def refuse_deformable_wall(scene: Scene, fidelity: str) -> None:

@@ -16,7 +16,7 @@ def build_pid_fmu(output: Path) -> Path:
     """Build PidController.fmu at `output` (not yet validated: the caller does)."""
     from pythonfmu.builder import FmuBuilder
 
-    from ... import __version__
+    from ...version import __version__
 
     xml = (HERE / "PidController.template.xml").read_text()
     xml = xml.replace("{{GUID}}", str(uuid.uuid4())).replace("{{VERSION}}", __version__).replace("{{DATE}}", now_iso())
