@@ -31,41 +31,8 @@ import numpy as np
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
 from fem_pendulum_fmu.physics.scene import PRESETS
 
-CHILD = r"""
-import json, os, sys, time
-import numpy as np
-from fmpy import extract, read_model_description
-from fmpy.fmi2 import FMU2Slave
-fmu, preset, fidelity, t_end = sys.argv[1], sys.argv[2], int(sys.argv[3]), float(sys.argv[4])
-md = read_model_description(fmu)
-vr = {v.name: v.valueReference for v in md.modelVariables}
-names = ["theta", "gap", "energy.total", "energy.torque_work", "solver.substeps"]
-s = FMU2Slave(guid=md.guid, unzipDirectory=extract(fmu), modelIdentifier=md.coSimulation.modelIdentifier,
-              instanceName="b")
-s.instantiate(); s.setupExperiment(startTime=0.0); s.enterInitializationMode()
-s.setInteger([vr["model.fidelity"]], [fidelity])
-if preset == "compliant":
-    s.setReal([vr["pendulum.E"], vr["pendulum.nu"], vr["pendulum.rho"], vr["contact.stiffness"]],
-              [1e6, 0.45, 1000.0, 5e9])
-    s.setInteger([vr["model.order"]], [3])
-s.exitInitializationMode()
-reals = [vr[n] for n in names[:4]]
-n = int(round(t_end / 1e-3))
-rows = np.empty((n + 1, 5))
-rows[0, :4] = s.getReal(reals); rows[0, 4] = 0
-t0, c0 = time.perf_counter(), time.process_time()
-for k in range(n):
-    s.setReal([vr["torque"]], [0.0])
-    s.doStep(k * 1e-3, 1e-3)
-    rows[k + 1, :4] = s.getReal(reals)
-    rows[k + 1, 4] = s.getInteger([vr["solver.substeps"]])[0]
-wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-s.terminate(); s.freeInstance()
-np.save(sys.argv[5], rows)
-print(json.dumps({"wall": wall, "cpu": cpu}))
-"""
-
 ROOT = Path(__file__).resolve().parents[1]
+DRIVER = Path(__file__).resolve().with_name("fidelity_speed_driver.py")  # one timed run, in a fresh process
 sys.path.insert(0, str(ROOT / "tests"))  # fmu_runner: the interface's enumeration numbers
 
 from fmu_runner import fmi_value  # noqa: E402
@@ -77,8 +44,7 @@ def run(fmu: Path, preset: str, fidelity: str, t_end: float, tmp: Path) -> tuple
     proc = subprocess.run(
         [
             sys.executable,
-            "-c",
-            CHILD,
+            str(DRIVER),
             str(fmu),
             preset,
             str(fmi_value("model.fidelity", fidelity)),

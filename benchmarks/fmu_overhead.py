@@ -18,40 +18,50 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
-FMU_STEPS = """
-import sys, time
-from fmpy import extract, read_model_description
-from fmpy.fmi2 import FMU2Slave
-fmu, n, fidelity = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
-t0 = time.perf_counter()
-md = read_model_description(fmu); d = extract(fmu)
-vr = {v.name: v.valueReference for v in md.modelVariables}
-outs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
-s = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier="FemPendulum", instanceName="b")
-s.instantiate(); s.setupExperiment(startTime=0.0); s.enterInitializationMode()
-s.setInteger([vr["model.fidelity"]], [fidelity])
-s.exitInitializationMode()
-t_init = time.perf_counter() - t0
-t = 0.0
-t0 = time.perf_counter()
-for k in range(n):
-    s.setReal([vr["torque"]], [0.0]); s.doStep(t, 1e-3); t = (k + 1) * 1e-3; s.getReal(outs)
-print(t_init, (time.perf_counter() - t0) / n)
-"""
+HERE = str(Path(__file__).resolve())  # each run: this file in a fresh process (--direct, --fmu-steps)
 
-DIRECT = """
-import sys, time
-from fem_pendulum_fmu.physics.fidelity import create
-from fem_pendulum_fmu.physics.scene import stiff
-n, fidelity = int(sys.argv[1]), sys.argv[2]
-m = create(stiff(**{"model.fidelity": fidelity}))
-t0 = time.perf_counter()
-for k in range(n):
-    m.advance((k + 1) * 1e-3, 0.0)
-print((time.perf_counter() - t0) / n)
-"""
+
+def fmu_steps(fmu: str, n: int, fidelity: int) -> None:
+    """(A child, --fmu-steps.) Print the time of instantiate + initialise and the time per doStep of n steps
+    through fmpy's FMU2Slave."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    t0 = time.perf_counter()
+    md = read_model_description(fmu)
+    d = extract(fmu)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    outs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+    s = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier="FemPendulum", instanceName="b")
+    s.instantiate()
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.setInteger([vr["model.fidelity"]], [fidelity])
+    s.exitInitializationMode()
+    t_init = time.perf_counter() - t0
+    t = 0.0
+    t0 = time.perf_counter()
+    for k in range(n):
+        s.setReal([vr["torque"]], [0.0])
+        s.doStep(t, 1e-3)
+        t = (k + 1) * 1e-3
+        s.getReal(outs)
+    print(t_init, (time.perf_counter() - t0) / n)
+
+
+def direct_steps(n: int, fidelity: str) -> None:
+    """(A child, --direct.) Print the time per step of n steps of the model called directly."""
+    from fem_pendulum_fmu.physics.fidelity import create
+    from fem_pendulum_fmu.physics.scene import stiff
+
+    m = create(stiff(**{"model.fidelity": fidelity}))
+    t0 = time.perf_counter()
+    for k in range(n):
+        m.advance((k + 1) * 1e-3, 0.0)
+    print((time.perf_counter() - t0) / n)
 
 
 def main() -> None:
@@ -59,7 +69,15 @@ def main() -> None:
     p.add_argument("--fmu", type=Path, default=Path("dist") / "FemPendulum.fmu")
     p.add_argument("--steps", type=int, default=200)
     p.add_argument("--repeat", type=int, default=3, help="runs each way; the first FMU run has the cold cache")
+    p.add_argument("--fmu-steps", nargs=3, metavar=("FMU", "STEPS", "FIDELITY"), help=argparse.SUPPRESS)
+    p.add_argument("--direct", nargs=2, metavar=("STEPS", "FIDELITY"), help=argparse.SUPPRESS)
     args = p.parse_args()
+    if args.fmu_steps:
+        fmu_steps(args.fmu_steps[0], int(args.fmu_steps[1]), int(args.fmu_steps[2]))
+        return
+    if args.direct:
+        direct_steps(int(args.direct[0]), args.direct[1])
+        return
     print(
         "| fidelity | direct s/step | through fmpy s/step | overhead per doStep "
         "| instantiate+initialise, cold cache | warm cache |"
@@ -74,7 +92,7 @@ def main() -> None:
                 direct.append(
                     float(
                         subprocess.run(
-                            [sys.executable, "-c", DIRECT, str(args.steps), name],
+                            [sys.executable, HERE, "--direct", str(args.steps), name],
                             capture_output=True,
                             text=True,
                             check=True,
@@ -82,7 +100,7 @@ def main() -> None:
                     )
                 )
                 out = subprocess.run(
-                    [sys.executable, "-c", FMU_STEPS, str(args.fmu), str(args.steps), str(code)],
+                    [sys.executable, HERE, "--fmu-steps", str(args.fmu), str(args.steps), str(code)],
                     capture_output=True,
                     text=True,
                     check=True,

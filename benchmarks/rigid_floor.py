@@ -44,84 +44,11 @@ from pathlib import Path
 
 from fem_pendulum_fmu.fmi import interface as fmi_interface
 
-FLOOR_ID = "RigidFloor"
+FLOOR_ID = "RigidFloor"  # the class of benchmarks/rigid_floor_slave.py
 
-SLAVE_TEMPLATE = '''"""A trivial slave with FemPendulum's variables: the cost floor of a Python FMU."""
-
-from pythonfmu import Fmi2Slave
-from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Variability
-from pythonfmu.variables import Boolean, Integer, Real, String
-
-VARIABLES = {variables!r}
-TYPES = {{"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean": Boolean, "String": String}}
-
-
-class {name}(Fmi2Slave):
-    def __init__(self, **kwargs):
-        super().__init__(**kwargs)
-        self.values = {{}}
-        self.torque = 0.0
-        self.theta = 0.0
-        for name, typ, causality, variability, start in VARIABLES:
-            self._add(name, typ, causality, variability, start)
-
-    def _add(self, name, typ, causality, variability, start):
-        extra = {{}}
-        if causality == "parameter":
-            self.values[name] = start
-            extra = dict(initial=Fmi2Initial.exact, setter=lambda v, n=name: self.values.__setitem__(n, v))
-            getter = lambda n=name: self.values[n]
-        elif causality == "input":
-            getter, extra["setter"] = (lambda: self.torque), self._set_torque
-        elif name == "theta":
-            getter = lambda: self.theta
-        else:
-            getter = lambda: 0.0
-        if start is not None:
-            extra["start"] = start
-        var = TYPES[typ](
-            name, causality=Fmi2Causality[causality], variability=Fmi2Variability[variability], getter=getter, **extra
-        )
-        self.register_variable(var, nested=False)
-
-    def _set_torque(self, value):
-        self.torque = float(value)
-
-    def do_step(self, current_time, step_size):
-        self.theta += self.torque * step_size
-        return True
-'''
-
-DRIVER = """
-import functools, json, sys, time
-from fmpy import extract, read_model_description
-from fmpy.fmi2 import FMU2Slave
-fmu, identifier, stop, step = sys.argv[1], sys.argv[2], float(sys.argv[3]), float(sys.argv[4])
-integers = json.loads(sys.argv[5])
-md = read_model_description(fmu)
-vr = {v.name: v.valueReference for v in md.modelVariables}
-outs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
-s = FMU2Slave(guid=md.guid, unzipDirectory=extract(fmu), modelIdentifier=identifier, instanceName="floor")
-s.instantiate(); s.setupExperiment(startTime=0.0); s.enterInitializationMode()
-for name, value in integers.items():
-    s.setInteger([vr[name]], [value])
-s.exitInitializationMode()
-n = round(stop / step)
-torque = [vr["torque"]]
-t = 0.0
-c0, w0, h0 = time.process_time(), time.perf_counter(), time.thread_time()
-if sys.argv[6:] == ["count"]:  # the same calls inside functools.reduce, which callgrind collects alone
-    def one(_, k):
-        s.setReal(torque, [0.0]); s.doStep(k * step, step); return s.getReal(outs)
-    values = functools.reduce(one, range(n), None)
-else:
-    for k in range(n):
-        s.setReal(torque, [0.0]); s.doStep(t, step); t = (k + 1) * step; values = s.getReal(outs)
-cpu, wall, thread = time.process_time() - c0, time.perf_counter() - w0, time.thread_time() - h0
-s.terminate(); s.freeInstance()
-theta = values[outs.index(vr["theta"])]
-print(json.dumps({"cpu": cpu, "wall": wall, "thread": thread, "outputs": len(outs), "theta": theta}))
-"""
+HERE = Path(__file__).resolve().parent
+SLAVE = HERE / "rigid_floor_slave.py"  # the trivial slave; its variables in a file beside it in the FMU
+DRIVER = HERE / "rigid_floor_driver.py"  # one timed run, in a fresh process
 
 
 def variables() -> list[tuple]:
@@ -135,13 +62,14 @@ def variables() -> list[tuple]:
 
 def build_floor(folder: Path) -> Path:
     """Build the trivial FMU in `folder`, with the same binary as FemPendulum."""
+    import rigid_floor_slave  # benchmarks/ is on sys.path: this script's folder
     from pythonfmu.builder import FmuBuilder
 
     from fem_pendulum_fmu.fmi.builder import finish_fmu, shim_resources
 
-    script = folder / f"{FLOOR_ID.lower()}_entry.py"
-    script.write_text(SLAVE_TEMPLATE.format(variables=variables(), name=FLOOR_ID))
-    fmu = Path(FmuBuilder.build_FMU(script, dest=folder))
+    listed = folder / rigid_floor_slave.VARIABLES_FILE
+    listed.write_text(json.dumps(variables()))
+    fmu = Path(FmuBuilder.build_FMU(SLAVE, dest=folder, project_files=[listed]))
     with zipfile.ZipFile(fmu) as z:
         xml = z.read("modelDescription.xml").decode()
     finish_fmu(fmu, FLOOR_ID, xml, shim_resources(("numpy",)))
@@ -151,7 +79,7 @@ def build_floor(folder: Path) -> Path:
 def run(fmu: Path, identifier: str, stop: float, step: float, integers: dict[str, int]) -> dict:
     """One run in a fresh process: the driver's JSON line."""
     out = subprocess.run(
-        [sys.executable, "-c", DRIVER, str(fmu), identifier, repr(stop), repr(step), json.dumps(integers)],
+        [sys.executable, str(DRIVER), str(fmu), identifier, repr(stop), repr(step), json.dumps(integers)],
         capture_output=True,
         text=True,
         check=True,
@@ -171,7 +99,7 @@ def count_instructions(fmu: Path, identifier: str, stop: float, step: float, int
         args = [str(fmu), identifier, repr(stop), repr(step), json.dumps(integers), "count"]
         valgrind = ["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=functools_reduce"]
         subprocess.run(
-            [*valgrind, f"--callgrind-out-file={out}", sys.executable, "-c", DRIVER, *args],
+            [*valgrind, f"--callgrind-out-file={out}", sys.executable, str(DRIVER), *args],
             capture_output=True,
             check=True,
         )

@@ -2,7 +2,8 @@
  *
  * Build:  cc -shared -fPIC -I<fmpy>/c-code exit_time_host.c -ldl -o exit_time_host.so
  * Use:    from Python (ctypes), exit_time_host_start(MODE, PENDULUM_FOLDER, PENDULUM_GUID, PID_FOLDER, PID_GUID,
- *         VR_FIDELITY, FIDELITY), then let the script end normally. Used by tests/test_exit_time_host.py.
+ *         VR_FIDELITY, FIDELITY), then let the script end normally: tests/exit_time_host.py, for
+ *         tests/test_exit_time_host.py.
  *
  * exit_time_host_start loads the binaries of the two unzipped FMUs (FemPendulum, PidController), instantiates,
  * initialises (the pendulum with model.fidelity = FIDELITY) and steps one instance of each (10 steps of 1 ms),

@@ -1,7 +1,11 @@
 """Run a schedule of communication steps through the FMU in a fresh interpreter (fmpy FMU2Slave).
 
 Shared by the robustness tests and benchmarks/robustness.py. One instance per
-run, freed (fmi2FreeInstance, library unloaded) before the next.
+run, freed (fmi2FreeInstance, library unloaded) before the next. The child is this file:
+
+    python tests/fmu_runner.py < JOB_JSON
+
+runs the job run_schedule writes to its stdin and prints the outputs as one JSON line.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-HERE = str(Path(__file__).resolve().parent)
+HERE = Path(__file__).resolve()
 COLUMNS = (
     "time",
     "theta",
@@ -53,14 +57,14 @@ def run_schedule(fmu: str, params: dict, schedule: list, repeat: int = 1) -> lis
     schedule: [(h, torque), ...]. The status column is 0 (OK) or 2 (discard: the run stops there)."""
     params = {k: fmi_value(k, v) for k, v in params.items()}
     payload = json.dumps({"fmu": str(fmu), "params": params, "schedule": schedule, "repeat": repeat})
-    script = f"import sys; sys.path.insert(0, {HERE!r}); import fmu_runner; fmu_runner._child()"
-    run = subprocess.run([sys.executable, "-c", script], input=payload, capture_output=True, text=True)
+    run = subprocess.run([sys.executable, str(HERE)], input=payload, capture_output=True, text=True)
     if run.returncode != 0:
         raise RuntimeError(run.stdout[-3000:] + run.stderr[-3000:])
     return [np.array(rows, dtype=float) for rows in json.loads(run.stdout.strip().splitlines()[-1])]
 
 
-def _child() -> None:
+def main() -> None:
+    """The child of run_schedule: the job (JSON on stdin) run, the rows printed as one JSON line."""
     from fmpy.fmi1 import FMICallException
     from test_fmu import Instance
 
@@ -97,3 +101,7 @@ def _row(inst, reals: list[int], sub: int, t: float, status: int) -> list[float]
 
 def col(run: np.ndarray, name: str) -> np.ndarray:
     return run[:, COLUMNS.index(name)]
+
+
+if __name__ == "__main__":
+    main()

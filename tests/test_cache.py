@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -12,18 +13,7 @@ from fem_pendulum_fmu.physics import cache
 from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.scene import stiff
 
-WRITER = """
-import sys, time
-from pathlib import Path
-from fem_pendulum_fmu.physics import cache
-def write(path):
-    data = bytes(range(256)) * 4000
-    with open(path, "wb") as f:
-        for i in range(0, len(data), 4096):
-            f.write(data[i:i + 4096]); f.flush(); time.sleep(0.001)
-p = cache.cached_file("race", {"n": 1}, ".bin", write)
-print(len(Path(p).read_bytes()))
-"""
+WRITER = str(Path(__file__).resolve().parent / "cache_writer.py")
 
 
 def test_entry_is_built_once_and_reused(tmp_path, monkeypatch):
@@ -47,9 +37,7 @@ def test_cache_off_and_unwritable_folder_still_build(tmp_path, monkeypatch):
 
 def test_processes_sharing_the_cache_never_see_a_partial_entry(tmp_path):
     env = {**os.environ, cache.ENV: str(tmp_path)}
-    procs = [
-        subprocess.Popen([sys.executable, "-c", WRITER], env=env, stdout=subprocess.PIPE, text=True) for _ in range(4)
-    ]
+    procs = [subprocess.Popen([sys.executable, WRITER], env=env, stdout=subprocess.PIPE, text=True) for _ in range(4)]
     sizes = [int(p.communicate()[0].strip()) for p in procs]
     assert sizes == [1024000] * 4
     assert [f.name for f in tmp_path.iterdir()] == [cache.entry_name("race", {"n": 1}, ".bin")]

@@ -6,6 +6,7 @@ import json
 import math
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,20 +15,12 @@ from fem_pendulum_fmu.masters.controller_loop import LoopSettings, drive
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
 from fem_pendulum_fmu.physics.scene import Scene
 
-LOOP = """
-import json, math, sys
-from pathlib import Path
-from fem_pendulum_fmu.masters.controller_loop import run_loop, tracking_error, wall_impacts
-r = run_loop(Path(sys.argv[1]), Path(sys.argv[2]), stop_time=2.0, step=1e-3, start_values=json.loads(sys.argv[3]))
-print(json.dumps({"rms_away": tracking_error(r), "impacts": wall_impacts(r).tolist(),
-                  **{k: r[k].tolist() for k in ("time", "theta", "gap", "torque", "setpoint")},
-                  "balance": (r["energy.total"] - r["energy.total"][0] - r["energy.torque_work"]).tolist()}))
-"""
+MASTER_RUNS = str(Path(__file__).resolve().parent / "master_runs.py")
 
 
 def run_loop(fmus, start_values: dict) -> dict:
     run = subprocess.run(
-        [sys.executable, "-c", LOOP, str(fmus[0]), str(fmus[1]), json.dumps(start_values)],
+        [sys.executable, MASTER_RUNS, "loop", str(fmus[0]), str(fmus[1]), json.dumps(start_values)],
         capture_output=True,
         text=True,
     )

@@ -1,14 +1,14 @@
 """A Python host whose C library frees its FMU instances at exit, after the interpreter has been finalised.
 
-The host script (HOST) loads tests/exit_time_host.c, compiled here, through ctypes; the library instantiates,
-initialises and steps one instance of each FMU (FemPendulum with the rigid fidelity, PidController) and leaves
-them alive, and the script ends normally. Python is finalised first; then exit() runs the library's handler,
-which terminates and frees both instances, as a C/C++ library's exit-time destructors do: from an atexit()
-handler registered after the instances (it runs before the handlers the FMU binaries registered), one
-registered before them (it runs after), or the library's ELF destructor (after every atexit() handler). The FMU
-binary must answer without touching the finalised Python: fmi2Terminate fmi2Error, fmi2FreeInstance nothing
-(docs/fmu.md); the binary built from pythonfmu's had the process die of SIGSEGV in PyGILState_Ensure there, in
-every run. A run takes about a second.
+The host script (tests/exit_time_host.py) loads tests/exit_time_host.c, compiled here, through ctypes; the
+library instantiates, initialises and steps one instance of each FMU (FemPendulum with the rigid fidelity,
+PidController) and leaves them alive, and the script ends normally. Python is finalised first; then exit() runs
+the library's handler, which terminates and frees both instances, as a C/C++ library's exit-time destructors do:
+from an atexit() handler registered after the instances (it runs before the handlers the FMU binaries
+registered), one registered before them (it runs after), or the library's ELF destructor (after every atexit()
+handler). The FMU binary must answer without touching the finalised Python: fmi2Terminate fmi2Error,
+fmi2FreeInstance nothing (docs/fmu.md); the binary built from pythonfmu's had the process die of SIGSEGV in
+PyGILState_Ensure there, in every run. A run takes about a second.
 """
 
 from __future__ import annotations
@@ -26,16 +26,7 @@ HERE = Path(__file__).resolve().parent
 RUNS = 5
 RIGID = 2  # model.fidelity item
 
-HOST = """
-import ctypes
-import sys
-
-library, mode, pendulum, pendulum_guid, pid, pid_guid, vr_fidelity, fidelity = sys.argv[1:]
-lib = ctypes.CDLL(library)
-lib.exit_time_host_start.argtypes = [ctypes.c_char_p] * 5 + [ctypes.c_int, ctypes.c_int]
-names = [a.encode() for a in (mode, pendulum, pendulum_guid, pid, pid_guid)]
-print("started", lib.exit_time_host_start(*names, int(vr_fidelity), int(fidelity)), flush=True)
-"""
+HOST = HERE / "exit_time_host.py"
 
 
 @pytest.fixture(scope="module")
@@ -76,7 +67,7 @@ def test_instances_freed_after_python_is_finalised(host_arguments, mode, handler
     )
     for run_number in range(RUNS):
         run = subprocess.run(
-            [sys.executable, "-c", HOST, library, mode, *rest], capture_output=True, text=True, timeout=120
+            [sys.executable, str(HOST), library, mode, *rest], capture_output=True, text=True, timeout=120
         )
         where = f"run {run_number + 1} of {RUNS}: exit code {run.returncode}\n{run.stderr[-3000:]}"
         assert run.returncode == 0, where

@@ -10,9 +10,6 @@ from __future__ import annotations
 
 import math
 import resource
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,31 +17,12 @@ from fmpy.fmi1 import FMICallException
 from fmu_runner import fmi_value
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from isolated import isolated
 from test_fmu import Instance
 
 from fem_pendulum_fmu.physics import fidelity as models
 from fem_pendulum_fmu.physics.fidelity import StepFailed
 from fem_pendulum_fmu.physics.scene import stiff
-
-TESTS = str(Path(__file__).resolve().parent)
-
-
-def isolated(body):
-    """Run the test body in a new Python process (as tests/test_fmu.py does, for this module)."""
-
-    def test(fmus, tmp_path):
-        script = (
-            f"import sys; from pathlib import Path; sys.path.insert(0, {TESTS!r}); import test_faults; "
-            f"test_faults.{body.__name__}.body((Path({str(fmus[0])!r}), Path({str(fmus[1])!r})), "
-            f"Path({str(tmp_path)!r}))"
-        )
-        run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
-        assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
-
-    test.body = body
-    test.__name__ = body.__name__
-    return test
-
 
 RIGID_WALL = [f for f in ("rigid", "reduced", "fem") if f in models.AVAILABLE]
 COARSE = {"model.mesh_size": 0.06}

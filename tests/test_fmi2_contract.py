@@ -19,7 +19,6 @@ import json
 import math
 import os
 import subprocess
-import sys
 import traceback
 import zipfile
 from collections.abc import Callable
@@ -30,11 +29,12 @@ from pathlib import Path
 from typing import Any
 
 import fmi2_raw
+import in_child
 import pytest
 from pythonfmu import Fmi2Slave
+from raising_switch import RAISE_SWITCH, RAISING
 
-TESTS = str(Path(__file__).resolve().parent)
-RESULT = "RESULT "  # the line of a child's stdout that carries its result
+MODULE = Path(__file__).stem  # this module, as tests/in_child.py imports it
 RIGID = {"model.fidelity": 2}
 FEM = {"model.mesh_size": 0.06}
 H = 1e-3  # communication step of the scripted runs
@@ -42,18 +42,13 @@ CHILD_TIMEOUT = 240  # s: a child that hangs fails its test instead of the whole
 
 
 def child(function: str, *args: Any) -> Any:
-    """`function(*args)` of this module run in a new interpreter, which must exit 0; what it returned."""
-    script = (
-        f"import sys, json; sys.path.insert(0, {TESTS!r}); import test_fmi2_contract as m; "
-        f"print({RESULT!r} + json.dumps(m.{function}(*json.loads(sys.argv[1]))), flush=True)"
-    )
+    """`function(*args)` of this module run in a new interpreter (tests/in_child.py), which must exit 0; what it
+    returned."""
     run = subprocess.run(
-        [sys.executable, "-c", script, json.dumps(args)], capture_output=True, text=True, timeout=CHILD_TIMEOUT
+        in_child.command(MODULE, function, *args), capture_output=True, text=True, timeout=CHILD_TIMEOUT
     )
     assert run.returncode == 0, f"child exited {run.returncode}\n" + run.stdout[-3000:] + run.stderr[-3000:]
-    lines = [line for line in run.stdout.splitlines() if line.startswith(RESULT)]
-    assert lines, run.stdout[-3000:]
-    return json.loads(lines[-1][len(RESULT) :])
+    return in_child.result(run.stdout)
 
 
 # ------------------------------------------------------------------------------------------------------
@@ -335,14 +330,10 @@ def run_table(fmu: Path, kind: str) -> tuple[dict[str, dict], list[dict]]:
     remaining = [case.id for case in _cases(kind)]
     results: dict[str, dict] = {}
     runs: list[dict] = []
-    script = (
-        f"import sys, json; sys.path.insert(0, {TESTS!r}); import test_fmi2_contract as m; "
-        "m.table_child(*json.loads(sys.argv[1]))"
-    )
     while remaining:
         try:
             run = subprocess.run(
-                [sys.executable, "-c", script, json.dumps([str(fmu), kind, remaining])],
+                in_child.command(MODULE, "table_child", str(fmu), kind, remaining),
                 capture_output=True,
                 text=True,
                 timeout=CHILD_TIMEOUT,
@@ -843,80 +834,21 @@ def test_the_pid_refuses_every_state_function(fmus):
 # No fmi2Fatal: a slave class that raises
 # ------------------------------------------------------------------------------------------------------
 
-RAISING = (
-    "setup_experiment",
-    "enter_initialization_mode",
-    "exit_initialization_mode",
-    "do_step",
-    "terminate",
-    "get_real",
-    "get_integer",
-    "get_boolean",
-    "get_string",
-    "set_real",
-    "set_integer",
-    "set_boolean",
-    "set_string",
-    "_get_fmu_state",
-    "_set_fmu_state",
-    "_fmu_state_to_bytes",
-    "_fmu_state_from_bytes",
-)
-RAISE_SWITCH = "FEMP_TEST_RAISE"  # names the methods that raise, comma-separated; "*": all of RAISING
-
-RAISING_ENTRY = f'''"""Entry script of a test copy of FemPendulum.fmu (tests/test_fmi2_contract.py): the FMU's own
-class, subclassed so that each FMI entry point, and __init__, raises RuntimeError while the environment
-variable {RAISE_SWITCH} names it ("*": every entry point, not __init__)."""
-
-import inspect
-import os
-
-from fem_pendulum_fmu.fmi.femp_slave_entry import FemPendulum as _Original
-
-RAISING = {RAISING!r}
-
-
-def _planted(method):
-    names = os.environ.get({RAISE_SWITCH!r}, "").split(",")
-    if method in names or ("*" in names and method != "__init__"):
-        raise RuntimeError("planted failure in " + method)
-
-
-def _raising(name):
-    original = inspect.getattr_static(_Original, name)
-    static = isinstance(original, staticmethod)
-    function = original.__func__ if static else original
-
-    def method(*args, **kwargs):
-        _planted(name)
-        return function(*args, **kwargs)
-
-    method.__name__ = name
-    return staticmethod(method) if static else method
-
-
-class FemPendulum(_Original):
-    """The pendulum, raising on request."""
-
-    def __init__(self, **kwargs):
-        _planted("__init__")
-        super().__init__(**kwargs)
-
-
-for _name in RAISING:
-    setattr(FemPendulum, _name, _raising(_name))
-'''
+RAISING_ENTRY = Path(__file__).resolve().parent / "raising_entry.py"
+RAISING_SWITCH = RAISING_ENTRY.with_name("raising_switch.py")
 
 
 def raising_copy(fmu: Path, folder: Path) -> Path:
-    """A copy of FemPendulum.fmu whose resources/femp_slave_entry.py is RAISING_ENTRY."""
+    """A copy of FemPendulum.fmu whose resources/femp_slave_entry.py is tests/raising_entry.py, with the
+    switch it imports (tests/raising_switch.py) beside it."""
     copy = folder / "FemPendulum.fmu"
     with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(copy, "w", zipfile.ZIP_DEFLATED) as dst:
         for item in src.infolist():
             if item.filename == "resources/femp_slave_entry.py":
-                dst.writestr(item, RAISING_ENTRY)
+                dst.writestr(item, RAISING_ENTRY.read_text())
             else:
                 dst.writestr(item, src.read(item.filename))
+        dst.write(RAISING_SWITCH, "resources/raising_switch.py")
     return copy
 
 

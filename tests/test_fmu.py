@@ -1,6 +1,6 @@
 """The FMU as masters use it: build, validation, fmpy command line and API, errors, state.
 
-Every test that instantiates the FMU runs in a fresh interpreter (@isolated), so
+Every test that instantiates the FMU runs in a fresh interpreter (@isolated, tests/isolated.py), so
 that what one test loads cannot help or hurt the next; the test with two
 instances in one process checks that they coexist.
 """
@@ -16,6 +16,7 @@ import zipfile
 from ctypes import byref
 from pathlib import Path
 
+import in_child
 import numpy as np
 import pytest
 from fmpy import extract, fmi2, read_model_description, simulate_fmu
@@ -23,27 +24,12 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 from fmpy.logging import addLoggerProxy
 from fmpy.validation import validate_fmu
+from isolated import isolated
 
 ROOT = Path(__file__).resolve().parents[1]
 COARSE = {"model.mesh_size": 0.06}  # FMI behaviour, not physics: the coarsest mesh keeps tests fast
-TESTS = str(Path(__file__).resolve().parent)
-
-
-def isolated(body):
-    """Run the test body in a new Python process (one FMU instance per process)."""
-
-    def test(fmus, tmp_path):
-        script = (
-            f"import sys; from pathlib import Path; sys.path.insert(0, {TESTS!r}); import test_fmu; "
-            f"test_fmu.{body.__name__}.body((Path({str(fmus[0])!r}), Path({str(fmus[1])!r})), "
-            f"Path({str(tmp_path)!r})); "
-        )
-        run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
-        assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
-
-    test.body = body
-    test.__name__ = body.__name__
-    return test
+MODULE = Path(__file__).stem  # this module, as tests/in_child.py imports it
+MASTER_RUNS = str(Path(__file__).resolve().parent / "master_runs.py")
 
 
 class Instance:
@@ -251,16 +237,14 @@ def test_rollback_replays_bit_identically(fmus, tmp_path):
     inst.close()
 
 
-RESTORE_SCRIPT = """
-import sys, json
-sys.path.insert(0, {tests!r})
-from test_fmu import Instance
-inst = Instance({fmu!r}, **{start!r})
-state = inst.fmu.deSerializeFMUstate(open({blob!r}, 'rb').read())
-inst.fmu.setFMUstate(state)
-inst.t = {t!r}
-print(json.dumps([inst.step(1e-3, -0.3) for _ in range(10)]))
-"""
+def restored_steps(fmu: str, start: dict, blob: str, t: float) -> list[list[float]]:
+    """(Run by tests/in_child.py, in another process.) A new instance with `start`, set to the state
+    serialised in the file `blob` at time t, then ten steps: the outputs after each."""
+    inst = Instance(fmu, **start)
+    state = inst.fmu.deSerializeFMUstate(Path(blob).read_bytes())
+    inst.fmu.setFMUstate(state)
+    inst.t = t
+    return [inst.step(1e-3, -0.3) for _ in range(10)]
 
 
 @pytest.mark.slow
@@ -274,13 +258,8 @@ def test_serialised_state_restores_in_another_process(fmus, tmp_path):
     blob.write_bytes(bytes(inst.fmu.serializeFMUstate(inst.fmu.getFMUstate())))
     here = [inst.step(1e-3, -0.3) for _ in range(10)]
     inst.close()
-    script = RESTORE_SCRIPT.format(
-        tests=str(Path(__file__).parent), fmu=str(fmu), start=COARSE, blob=str(blob), t=0.005
-    )
-    out = subprocess.run([sys.executable, "-c", script], check=True, capture_output=True, text=True).stdout
-    import json
-
-    there = json.loads(out.strip().splitlines()[-1])
+    command = in_child.command(MODULE, "restored_steps", str(fmu), COARSE, str(blob), 0.005)
+    there = in_child.result(subprocess.run(command, check=True, capture_output=True, text=True).stdout)
     assert there == [list(map(float, row)) for row in here]
 
 
@@ -342,31 +321,16 @@ def test_variable_communication_steps_reach_the_same_state(fmus, tmp_path):
     inst.close()
 
 
-LIBCOSIM_RUN = """
-import json, math, sys
-from fmpy import read_model_description
-from libcosimpy.CosimExecution import CosimExecution
-from libcosimpy.CosimManipulator import CosimManipulator
-from libcosimpy.CosimObserver import CosimObserver
-from libcosimpy.CosimSlave import CosimLocalSlave
-fmu = sys.argv[1]
-vr = {v.name: v.valueReference for v in read_model_description(fmu).modelVariables}
-ex = CosimExecution.from_step_size(step_size=1_000_000)  # 1 ms in ns
-idx = ex.add_local_slave(local_slave=CosimLocalSlave(fmu_path=fmu, instance_name="pendulum"))
-ex.real_initial_value(idx, vr["model.mesh_size"], 0.06)
-ex.integer_initial_value(idx, vr["wall.kind_index"], 1)  # libcosim ignores enumerations: the Integer alias
-observer = CosimObserver.create_last_value()
-ex.add_observer(observer)
-override = CosimManipulator.create_override()
-ex.add_manipulator(override)
-outs = [vr[n] for n in ("theta", "omega", "gap", "contact_force", "energy.total", "energy.torque_work")]
-rows = []
-for k in range(300):
-    override.slave_real_values(idx, [vr["torque"]], [-2.0 * math.sin(10.0 * k * 1e-3)])
-    ex.step()
-    rows.append(list(observer.last_real_values(idx, outs)))
-open(sys.argv[2], "w").write(json.dumps(rows))
-"""
+def libcosim_reference(fmu: str) -> list[list[float]]:
+    """(Run by tests/in_child.py.) The run of tests/master_runs.py libcosim through fmpy (Instance): the
+    outputs it records after each step."""
+    i = Instance(fmu, **{"model.mesh_size": 0.06, "wall.kind": 1})
+    names = ("theta", "omega", "gap", "contact_force", "energy.total", "energy.torque_work")
+    rows = []
+    for k in range(300):
+        i.step(1e-3, -2.0 * math.sin(10.0 * k * 1e-3))
+        rows.append(i.get(*names))
+    return rows
 
 
 @pytest.mark.slow
@@ -374,19 +338,11 @@ def test_libcosim_master_matches_fmpy(fmus, tmp_path):
     """The Open Simulation Platform's libcosim (through libcosimpy) steps the FMU like fmpy does."""
     fmu, _ = fmus
     out = tmp_path / "libcosim.json"
-    run = subprocess.run([sys.executable, "-c", LIBCOSIM_RUN, str(fmu), str(out)], capture_output=True, text=True)
+    run = subprocess.run([sys.executable, MASTER_RUNS, "libcosim", str(fmu), str(out)], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr[-3000:]
     cosim = np.array(json.loads(out.read_text()))
-    script = (
-        f"import sys, json, math; sys.path.insert(0, {TESTS!r}); from test_fmu import Instance; "
-        f"i = Instance({str(fmu)!r}, **{{'model.mesh_size': 0.06, 'wall.kind': 1}}); names = "
-        "('theta', 'omega', 'gap', 'contact_force', 'energy.total', 'energy.torque_work'); rows = []\n"
-        "for k in range(300):\n"
-        "    i.step(1e-3, -2.0 * math.sin(10.0 * k * 1e-3)); rows.append(i.get(*names))\n"
-        "print(json.dumps(rows))"
-    )
-    ref = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
-    fmpy_rows = np.array(json.loads(ref.stdout.strip().splitlines()[-1]))
+    command = in_child.command(MODULE, "libcosim_reference", str(fmu))
+    fmpy_rows = np.array(in_child.result(subprocess.run(command, capture_output=True, text=True, check=True).stdout))
     assert fmpy_rows[:, 3].max() > 0 or fmpy_rows[:, 2].min() < 0.01  # driven towards the wall
     diff = np.max(np.abs(cosim - fmpy_rows), axis=0)
     assert np.all(diff <= 1e-9), diff
