@@ -21,8 +21,8 @@ def test_every_public_name_is_the_object_of_its_module():
 
 
 def test_importing_the_package_loads_no_numpy():
-    code = "import sys, fem_pendulum_fmu; print('numpy' in sys.modules)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    probe = [sys.executable, "-c", "import sys, fem_pendulum_fmu; print('numpy' in sys.modules)"]
+    out = subprocess.run(probe, capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"
 
 
