@@ -17,14 +17,13 @@ import pytest
 
 from fem_pendulum_fmu.physics import fidelity_rule as selection
 from fem_pendulum_fmu.physics.fidelity import create
-from fem_pendulum_fmu.physics.reduced import model as reduced
-from fem_pendulum_fmu.physics.reduced import modes
+from fem_pendulum_fmu.physics.reduced import modes, step, strain
 from fem_pendulum_fmu.physics.scene import compliant, stiff
 
 DT = 1e-3
 # Newton stops when a step's energy imbalance is below ENERGY_TOL of the energies it moves (|E| < 2 J
 # here): at most ~1000 steps * 1e-10 * 2 J = 2e-7 J, against a swing energy of 0.117 J (steel).
-ENERGY_BOUND = 1000 * reduced.ENERGY_TOL * 2.0
+ENERGY_BOUND = 1000 * step.ENERGY_TOL * 2.0
 
 
 def trace(m, t_end, torque=0.0):
@@ -54,12 +53,12 @@ def test_modal_basis_is_the_hinged_pendulums():
 def test_neo_hookean_strain_matches_the_modal_stiffness_for_small_displacements():
     scene = compliant(model__fidelity="reduced")
     basis = modes.modal_basis(scene)
-    linear = reduced.LinearStrain(basis.omega2)
-    exact = reduced.NeoHookeanStrain(scene, basis.phi, basis.omega2)
+    linear = strain.LinearStrain(basis.omega2)
+    exact = strain.NeoHookeanStrain(scene, basis.phi, basis.omega2)
     q = 1e-6 * np.linspace(1.0, -1.0, basis.count)
     assert exact.energy(q) == pytest.approx(linear.energy(q), rel=1e-3)
     assert np.allclose(exact.gradient(q), linear.gradient(q), rtol=1e-3, atol=1e-3 * np.max(np.abs(linear.gradient(q))))
-    assert reduced.uses_linear_strain(stiff()) and not reduced.uses_linear_strain(compliant())
+    assert strain.uses_linear_strain(stiff()) and not strain.uses_linear_strain(compliant())
 
 
 @pytest.fixture(scope="module")
@@ -157,16 +156,17 @@ def _state_after(scene, t_end, torque):
 def _newton_at(model, torque, dt=1e-3):
     """(the step's start, its first iterate, the Jacobian there, the residual's finite-difference Jacobian)."""
     z0, p0, _ = model._x
-    start = model._start(z0, p0, torque)
-    z1, _ = model._predict(start, dt)
-    ev = model._residual(start, z1, dt)
+    newton = model._newton  # the step's numpy form (reduced/step.py)
+    start = newton.start(z0, p0, torque)
+    z1, _ = newton.predict(start, dt)
+    ev = newton.residual(start, z1, dt)
     columns = []
     for j in range(model.n):
         e = np.zeros(model.n)
         e[j] = 1e-8
-        plus, minus = model._residual(start, z1 + e, dt), model._residual(start, z1 - e, dt)
+        plus, minus = newton.residual(start, z1 + e, dt), newton.residual(start, z1 - e, dt)
         columns.append((plus.residual - minus.residual) / 2e-8)
-    return start, ev, model._jacobian(ev, model._strain.hessian(ev.zm[1:]), dt), np.column_stack(columns)
+    return start, ev, newton.jacobian(ev, model._strain.hessian(ev.zm[1:]), dt), np.column_stack(columns)
 
 
 def test_step_algebra_is_the_dense_one_and_its_newton_jacobian_is_exact_to_first_order():

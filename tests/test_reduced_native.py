@@ -1,5 +1,5 @@
 """The reduced fidelity's compiled step and terms (physics/reduced/reduced_kernel.c, reduced/kernel.py)
-against their numpy forms in reduced/model.py and reduced/strain.py."""
+against their numpy forms in reduced/step.py, reduced/contact.py, reduced/head.py and reduced/strain.py."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import pytest
 
 from fem_pendulum_fmu.physics import native
 from fem_pendulum_fmu.physics.reduced.model import ReducedModel
+from fem_pendulum_fmu.physics.reduced.state import ReducedState
 from fem_pendulum_fmu.physics.scene import compliant, stiff
 
 # the two forms sum the same terms in different orders: measured 1e-14 relative (strain energy,
@@ -57,11 +58,11 @@ def test_contact_gap_and_strain_terms_equal_the_numpy_forms(monkeypatch: pytest.
     z = compiled._x[0]
     assert compiled._kernel is not None
     terms = compiled._kernel.contact(z)
-    reference = plain._evaluate_contact(z)
-    assert terms is not None and reference is not plain._no_contact
+    reference = plain._contact.evaluate(z)
+    assert terms is not None and reference is not plain._contact.none
     for got, want in zip(terms, reference, strict=True):
         assert _rel(got, want) < TERM_RTOL
-    assert compiled._kernel.gap(z) == pytest.approx(plain._gap(z), rel=TERM_RTOL)
+    assert compiled._kernel.gap(z) == pytest.approx(plain._head.gap(z), rel=TERM_RTOL)
     assert compiled._kernel.gap(z) < 0.0
     q = z[1:]
     strain, reference_strain = compiled._strain, plain._strain
@@ -76,6 +77,6 @@ def test_compiled_step_fails_as_the_numpy_one_on_an_inverted_body(monkeypatch: p
     x = compiled._x
     p = x[1].copy()
     p[1:] = 1e3  # modal momenta that fold the rod within a step
-    crushed = (x[0], p, 0.0)
+    crushed = ReducedState(x.z, p, 0.0)
     assert compiled.step(crushed, 2e-3, 0.0) is None
     assert plain.step(crushed, 2e-3, 0.0) is None

@@ -1,8 +1,8 @@
 """The reduced fidelity's compiled step and terms (physics/reduced/reduced_kernel.c), bound to one model's data.
 
-ReducedModel (reduced/model.py) and NeoHookeanStrain (reduced/strain.py)
-keep their numpy forms of the same computations; where native.kernels() finds a
-C compiler they call these instead (equal up to round-off, each run
+The reduced model's step (reduced/step.py), contact (reduced/contact.py), gap (reduced/head.py)
+and NeoHookeanStrain (reduced/strain.py) keep their numpy forms of the same computations; where
+native.kernels() finds a C compiler they call these instead (equal up to round-off, each run
 deterministic either way; tests/test_reduced_native.py compares them).
 """
 

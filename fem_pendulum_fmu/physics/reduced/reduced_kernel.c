@@ -1,8 +1,8 @@
 /* The reduced fidelity's step as one compiled call (loaded by native.py).
  *
- * The same computation as ReducedModel.step in reduced/model.py, with the
+ * The same computation as NewtonStep.step in reduced/step.py, with the
  * strain energy of reduced/strain.py and the wall contact of
- * ReducedModel._evaluate_contact: the linearised midpoint predictor, Newton on
+ * WallContact.evaluate (reduced/contact.py): the linearised midpoint predictor, Newton on
  * the discrete-gradient equations with the Jacobian of first order in the step,
  * and the energy-balance test. A step is 13 unknowns by default, so numpy's
  * per-call overhead was most of its cost (docs/reduced.md). Plain C, no
@@ -319,7 +319,7 @@ void femp_reduced_contact(const Reduced *R, const double *z, double *out) {
 }
 
 /* ------------------------------------------------------------------ the step */
-typedef struct { /* what a step's Newton iterations share (ReducedModel._start) */
+typedef struct { /* what a step's Newton iterations share (NewtonStep.start) */
     const double *z0, *p0;
     double *c0, *S0, *Q;
     double s0, c0c0, c0p0, p0p0, t00, V0;
@@ -338,7 +338,7 @@ static double potential(const Reduced *R, const double *z, Scratch *w, double pa
     return parts[0] + parts[1] + parts[2];
 }
 
-/* p1 = 2 x - p0 with 1/2 (M(q0)^-1 + M(q1)^-1) x = b (ReducedModel._end_momentum) */
+/* p1 = 2 x - p0 with 1/2 (M(q0)^-1 + M(q1)^-1) x = b (NewtonStep._end_momentum) */
 static void end_momentum(const Reduced *R, const Start *S, const double *b, const double *c1, double s1, double c0c1,
                          double c1c1, double *p1) {
     int m = R->m;
@@ -366,7 +366,7 @@ static double energy_balance(const Reduced *R, const Start *S, const double *z1,
     return fabs(kinetic + V - S->V0 - dot(n, S->Q, w->dz));
 }
 
-/* The discrete-gradient equations at z1 (ReducedModel._residual) into r; V1 is the potential at z1.
+/* The discrete-gradient equations at z1 (NewtonStep.residual) into r; V1 is the potential at z1.
  * Leaves dz, zm, cm in w and M(zm)'s corner in *mm, the contact at zm in w->contact. */
 static void residual(const Reduced *R, const Start *S, const double *z1, double V1, double dt, Scratch *w, double *r,
                      double *mm_out) {
@@ -424,7 +424,7 @@ static void residual(const Reduced *R, const Start *S, const double *z1, double 
     *mm_out = mm;
 }
 
-/* The residual's Jacobian in z1 (ReducedModel._jacobian), with the contact at zm already in w */
+/* The residual's Jacobian in z1 (NewtonStep.jacobian), with the contact at zm already in w */
 static void jacobian(const Reduced *R, const double *K, double mm, double dt, Scratch *w) {
     int m = R->m, n = m + 1;
     double h = 2.0 / dt, half = 0.5 * dt, *jac = w->jac;
@@ -481,7 +481,7 @@ static int solve(int n, double *A, double *b) {
     return 1;
 }
 
-/* The midpoint rule linearised at z0 (ReducedModel._predict) into z1; the strain tangent at q0 in K */
+/* The midpoint rule linearised at z0 (NewtonStep.predict) into z1; the strain tangent at q0 in K */
 static int predict(const Reduced *R, const Start *S, double dt, Scratch *w, double *z1) {
     int m = R->m, n = m + 1;
     const double *z0 = S->z0, *q0 = z0 + 1;
@@ -535,7 +535,7 @@ static double max_abs(int n, const double *x) {
     return s;
 }
 
-/* One discrete-gradient step from (z0, p0) with potential V0 (ReducedModel.step). Returns 1 and
+/* One discrete-gradient step from (z0, p0) with potential V0 (NewtonStep.step). Returns 1 and
  * z1, p1, out = (torque work of the step, gravity, contact and strain energy at z1), or 0 when
  * Newton does not converge (the stepper halves the step). */
 int femp_reduced_step(const Reduced *R, const double *z0, const double *p0, double V0, double dt, double torque,

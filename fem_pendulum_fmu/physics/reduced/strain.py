@@ -1,4 +1,4 @@
-"""Strain energy of the reduced fidelity's modal field (reduced/model.py).
+"""Strain energy of the reduced fidelity's modal field (reduced/model.py has the model's energies).
 
 Stiff bodies use the quadratic modal energy, soft ones the FE model's Neo-Hookean law integrated
 over the mesh's quadrature points, compiled (physics/reduced/reduced_kernel.c) or in numpy: the reduced
@@ -11,6 +11,7 @@ import numpy as np
 
 from ..scene import Scene
 from .kernel import reduced_kernel
+from .modes import ModalBasis
 
 
 def uses_linear_strain(scene: Scene) -> bool:
@@ -18,6 +19,13 @@ def uses_linear_strain(scene: Scene) -> bool:
     while evaluating the Neo-Hookean energy there would lose ~4 digits to cancellation
     (tr C - 2 - 2 ln J is O(strain^2) from O(strain) terms). Soft bodies use the Neo-Hookean energy."""
     return not scene.pendulum.soft
+
+
+def strain_energy(scene: Scene, basis: ModalBasis) -> LinearStrain | NeoHookeanStrain:
+    """The scene's strain energy: quadratic (stiff bodies) or Neo-Hookean (soft ones)."""
+    if uses_linear_strain(scene):
+        return LinearStrain(basis.omega2)
+    return NeoHookeanStrain(scene, basis.phi, basis.omega2)
 
 
 class LinearStrain:
