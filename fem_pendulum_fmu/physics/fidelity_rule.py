@@ -26,8 +26,8 @@ import math
 from dataclasses import dataclass
 
 from .mass_properties import gravity_moment, swing_energy
-from .reduced.model import uses_linear_strain
 from .reduced.modes import first_elastic_frequency, modal_basis
+from .reduced.strain import uses_linear_strain
 from .rigid.model import RigidModel
 from .scene import Scene
 

@@ -53,9 +53,7 @@ from .modes import ModalBasis, modal_basis
 from .potential import Potential
 from .state import FIDELITY, ReducedState
 from .step import CompiledStep, NewtonStep, bind_kernel
-from .strain import strain_energy, uses_linear_strain
-
-__all__ = ["ReducedModel", "uses_linear_strain"]  # uses_linear_strain: physics/fidelity_rule.py imports it from here
+from .strain import strain_energy
 
 
 class ReducedModel(SteppedModel[ReducedState]):
