@@ -10,7 +10,8 @@ from pathlib import Path
 import pytest
 
 from fem_pendulum_fmu.fmi import interface
-from fem_pendulum_fmu.fmi.slave import ENUM_ALIASES, OUTPUT_FIELDS, OUTPUT_PARAMETERS, PendulumSlave
+from fem_pendulum_fmu.fmi.interface import ENUM_ALIASES, FMU_ONLY_PARAMETERS, OUTPUT_FIELDS, scene_from_values
+from fem_pendulum_fmu.fmi.slave import PendulumSlave
 from fem_pendulum_fmu.physics.protocol import Outputs
 from fem_pendulum_fmu.physics.scene import FIDELITIES, WALL_KINDS, Scene, get_path
 
@@ -95,7 +96,7 @@ def test_start_values_are_the_scene_defaults():
         if v.name in ENUM_ALIASES:
             assert v.start == 0  # 0 = the enumeration decides
             continue
-        if v.name in OUTPUT_PARAMETERS:  # the FMU's field output, not physics: off by default
+        if v.name in FMU_ONLY_PARAMETERS:  # the FMU's field output, not physics: off by default
             assert (v.name, v.start) in {("output.vtk_folder", ""), ("output.vtk_interval", 0.01)}
             continue
         start = v.items[v.start - 1] if v.items else v.start
@@ -109,11 +110,11 @@ def test_start_values_are_the_scene_defaults():
             assert f"{number} {item}" in description
 
 
-def test_the_slave_builds_the_scene_its_parameters_describe():
+def test_the_scene_the_slaves_parameters_describe():
     slave = PendulumSlave(instance_name="check", resources=str(ROOT))
-    assert slave.scene() == Scene()
+    assert scene_from_values(slave.values) == Scene()
     slave.values.update({"pendulum.E": 1e6, "wall.kind": 3, "model.fidelity": 2, "model.compute_stress": True})
-    scene = slave.scene()
+    scene = scene_from_values(slave.values)
     assert (scene.pendulum.E, scene.wall.kind, scene.model.fidelity, scene.model.compute_stress) == (
         1e6,
         "none",
@@ -121,11 +122,23 @@ def test_the_slave_builds_the_scene_its_parameters_describe():
         True,
     )
     slave.values.update({"wall.kind_index": 1, "model.fidelity_index": 4})  # an explicit Integer setting wins
-    assert (slave.scene().wall.kind, slave.scene().model.fidelity) == ("rigid", "fem")
+    scene = scene_from_values(slave.values)
+    assert (scene.wall.kind, scene.model.fidelity) == ("rigid", "fem")
     slave.values["wall.kind"] = 7
     slave.values["wall.kind_index"] = 0
     with pytest.raises(ValueError, match=r"wall.kind = 7 is not allowed: choose one of 1 \(rigid\)"):
-        slave.scene()
+        scene_from_values(slave.values)
+
+
+def test_the_scene_a_masters_partial_values_describe():
+    """A sweep's values: some parameters only, enumerations by item name, the FMU-only ones left out."""
+    values = {"theta0": 0.3, "model.fidelity": "rigid", "output.vtk_folder": "out", "output.vtk_interval": 0.05}
+    assert scene_from_values(values) == Scene().with_values({"theta0": 0.3, "model.fidelity": "rigid"})
+    assert scene_from_values({"model.fidelity": "rigid", "model.fidelity_index": 3}).model.fidelity == "reduced"
+    with pytest.raises(ValueError, match="model.fidelity = 'wood' is not allowed: choose one of auto"):
+        scene_from_values({"model.fidelity": "wood"})
+    with pytest.raises(ValueError, match="theta is not a parameter"):
+        scene_from_values({"theta": 0.1})
 
 
 def test_template_is_complete_fmi():

@@ -6,6 +6,7 @@ slave flagged the call; tests/test_fmu.py checks the statuses through the FMU.)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -13,13 +14,14 @@ import pytest
 from pythonfmu.enums import Fmi2Status
 
 from fem_pendulum_fmu.fmi import slave as slave_module
-from fem_pendulum_fmu.physics.protocol import ModelState, Outputs, StepFailed
+from fem_pendulum_fmu.physics.protocol import ModelState, Outputs, StepFailed, check_advance_args
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 class ScriptedModel:
-    """Advances like a clock; raises what the test asks for; state = (time, calls)."""
+    """Advances like a clock; checks its arguments as every model does (physics/protocol.py); raises what the
+    test asks for; state = (time, calls)."""
 
     fidelity = "rigid"
 
@@ -27,6 +29,7 @@ class ScriptedModel:
         self.scene, self.time, self.calls, self.fail = scene, 0.0, 0, None
 
     def advance(self, t_end, torque):
+        check_advance_args(self.time, t_end, torque)
         if self.fail is not None:
             raise self.fail
         self.calls += 1
@@ -74,9 +77,9 @@ def test_do_step_advances_to_t_plus_h_with_the_torque_held(slave):
     [
         (0.0, 1e-3, math.nan, "torque = nan"),
         (0.0, 1e-3, math.inf, "torque = inf"),
-        (0.0, 0.0, 0.0, "step size 0.0"),
-        (0.0, -1e-3, 0.0, "step size -0.001"),
-        (0.0, math.nan, 0.0, "step size nan"),
+        (0.0, 0.0, 0.0, "t_end = 0.0"),
+        (0.0, -1e-3, 0.0, "t_end = -0.001"),
+        (0.0, math.nan, 0.0, "t_end = nan"),
         (0.25, 1e-3, 0.0, "communication point 0.25"),
     ],
 )
@@ -85,7 +88,40 @@ def test_invalid_input_is_refused_with_an_error_and_the_state_kept(slave, t, h, 
     assert slave.do_step(t, h) is False
     assert slave.model.time == 0.0 and slave.model.calls == 0
     [(status, msg)] = statuses(slave)
-    assert status == Fmi2Status.error and words in msg
+    assert status == Fmi2Status.error and words in msg and msg.startswith("doStep refused")
+    slave.torque = 0.0
+    assert slave.do_step(0.0, 1e-3) is True  # the instance goes on
+
+
+def test_a_value_error_of_the_model_is_an_error_with_the_state_kept(slave):
+    """physics/protocol.py: advance raises ValueError for a bad argument, its state unchanged; the slave
+    answers fmi2Error, does not take the model for broken, and the next good doStep goes on."""
+    slave.do_step(0.0, 1e-3)
+    before, outputs = slave._get_fmu_state(), slave.outputs
+    slave.model.fail = ValueError("torque = 1e300 is not allowed here")
+    assert slave.do_step(1e-3, 1e-3) is False
+    [(status, msg)] = statuses(slave)
+    assert status == Fmi2Status.error and "doStep refused: torque = 1e300" in msg
+    assert slave.broken is None and slave.outputs is outputs and slave._get_fmu_state().model == before.model
+    slave.model.fail = None
+    assert slave.do_step(1e-3, 1e-3) is True and slave.model.time == 2e-3
+
+
+def test_a_bad_torque_leaves_a_real_model_as_it_was():
+    """The same through the rigid model, whose advance checks the torque (the slave does not check it again)."""
+    s = slave_module.PendulumSlave(instance_name="test", resources=str(ROOT))
+    s.set_integer([s.interface.by_name("model.fidelity").value_reference], [2])
+    s.exit_initialization_mode()
+    assert s.do_step(0.0, 1e-3) is True
+    before = s.model.get_state()
+    s.set_real([s.interface.by_name("torque").value_reference], [math.nan])
+    assert s.do_step(1e-3, 1e-3) is False
+    assert "torque = nan is not allowed" in s.log_queue[-1].msg and s.log_queue[-1].status == Fmi2Status.error
+    after = s.model.get_state()
+    assert (after.time, after.scalars) == (before.time, before.scalars)
+    assert all((after.arrays[k] == v).all() for k, v in before.arrays.items())
+    s.set_real([s.interface.by_name("torque").value_reference], [0.0])
+    assert s.do_step(1e-3, 1e-3) is True and s.model.time == 2e-3
 
 
 def test_a_step_the_model_cannot_complete_is_discarded(slave):
@@ -142,10 +178,10 @@ def test_state_round_trip_and_refusals(slave):
     slave._set_fmu_state(restored)  # the same state restores twice: it was copied, not consumed
     assert slave.model.time == 1e-3
     assert slave.log_queue == []
-    other = dict(restored, values={**restored["values"], "gravity": 1.62})
+    other = dataclasses.replace(restored, values={**restored.values, "gravity": 1.62})
     slave._set_fmu_state(other)
     assert "gravity = 1.62" in slave.log_queue[-1].msg and slave.log_queue[-1].status == Fmi2Status.error
-    foreign = dict(restored, model=ModelState("fem", 1e-3))
+    foreign = dataclasses.replace(restored, model=ModelState("fem", 1e-3))
     slave._set_fmu_state(foreign)
     assert "another fidelity" in slave.log_queue[-1].msg
     assert slave._fmu_state_from_bytes(b"junk") is None  # refused where the bytes arrive, not at set
@@ -192,5 +228,5 @@ def test_a_bad_value_reference_is_an_error_not_a_crash(slave, call, args, words)
         assert len(result) == len(args[0])
     [(status, msg)] = statuses(slave)
     assert status == Fmi2Status.error and words in msg and "nothing was changed" in msg
-    assert slave._get_fmu_state()["values"] == before["values"] and slave.torque == before["torque"]
+    assert slave._get_fmu_state().values == before.values and slave.torque == before.torque
     assert slave.do_step(0.0, 1e-3) is True  # and the instance goes on

@@ -2,7 +2,10 @@
 
 The slave registers its variables from it, the builder (fmi/builder.py) renders it
 into the FMU's modelDescription.xml, and `fem-pendulum interface --markdown`
-prints the README's variable table from it.
+prints the README's variable table from it. `scene_from_values` turns parameter
+values into the `Scene` they describe, for the slave and the masters alike: the
+tables of what is not a scene parameter (ENUM_ALIASES, FMU_ONLY_PARAMETERS) live
+here only.
 """
 
 from __future__ import annotations
@@ -10,11 +13,37 @@ from __future__ import annotations
 import argparse
 import os
 import xml.etree.ElementTree as ET
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
+
+from ..physics.scene import Scene
 
 TEMPLATE_NAME = "modelDescription.template.xml"
+# Integer aliases of enumerations, for masters that cannot set enumerations (libcosim); 0 = the enumeration decides
+ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}
+# parameters of the FMU's field output (fmi/vtk_output.py), not of the physics: no Scene field takes them
+FMU_ONLY_PARAMETERS = ("output.vtk_folder", "output.vtk_interval")
+# FMI output name -> field of physics.protocol.Outputs
+OUTPUT_FIELDS = {
+    "theta": "theta",
+    "omega": "omega",
+    "gap": "gap",
+    "contact_force": "contact_force",
+    "energy.kinetic": "kinetic",
+    "energy.potential": "potential",
+    "energy.strain": "strain",
+    "energy.contact": "contact",
+    "energy.total": "total",
+    "energy.torque_work": "torque_work",
+    "stress.von_mises_max": "von_mises_max",
+    "solver.substeps": "substeps",
+    "gap_min": "min_gap",
+    "contact_force_max": "contact_force_max",
+    "contact_impulse": "contact_impulse",
+}
 
 
 @dataclass(frozen=True)
@@ -62,6 +91,45 @@ class Interface:
 
     def of_causality(self, causality: str) -> tuple[Variable, ...]:
         return tuple(v for v in self.variables if v.causality == causality)
+
+
+def scene_from_values(values: Mapping[str, Any], interface: Interface | None = None) -> Scene:
+    """The scene that FMI parameter values describe; parameters `values` leaves out keep the Scene's
+    defaults (the template's start values, tests/test_interface.py).
+
+    Enumerations may be given by number, as fmi2SetInteger takes them, or by item name, as a sweep's
+    table holds them; an Integer alias other than 0 wins over its enumeration; FMU-only parameters
+    are left out. ValueError names a value that is not allowed or a name that is not a parameter.
+    """
+    interface = interface or load()
+    parameters = {v.name: v for v in interface.of_causality("parameter")}
+    scene_values: dict[str, Any] = {}
+    for name, value in values.items():
+        if name not in parameters:
+            raise ValueError(f"{name} is not a parameter of the FMU (see `fem-pendulum interface`)")
+        if name not in ENUM_ALIASES and name not in FMU_ONLY_PARAMETERS:
+            scene_values[name] = _scene_value(parameters[name], value)
+    for alias, target in ENUM_ALIASES.items():
+        index = int(values.get(alias, 0))
+        if index != 0:
+            scene_values[target] = parameters[target].item_name(index)
+    return Scene().with_values(scene_values)
+
+
+def _scene_value(var: Variable, value: Any) -> Any:
+    """A parameter's value as the Scene holds it: enumerations by item name, numbers of the declared type."""
+    if var.items and isinstance(value, str):
+        var.item_number(value)  # a ValueError naming the items when it is none of them
+        return value
+    if var.items:
+        return var.item_name(value)
+    if var.type == "Real":
+        return float(value)
+    if var.type == "Integer":
+        return int(value)
+    if var.type == "Boolean":
+        return bool(value)
+    return value
 
 
 def template_path(resources: str | os.PathLike | None = None) -> Path:

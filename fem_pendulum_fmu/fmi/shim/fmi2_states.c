@@ -4,7 +4,7 @@
  * handle of this instance is refused without being read through. Serialised, a state is a header of
  * this binary (magic, format version, the FMU's GUID, the time) followed by the slave's bytes, so
  * fmi2DeSerializeFMUstate refuses another FMU's or a damaged state before the slave sees it, and the
- * slave (fmi/slave.py) then checks that the state fits this instance's model. */
+ * slave (fmi/fmu_state.py) then checks that the state fits this instance's model. */
 #include "python_api.h"
 
 #include <stdint.h>

@@ -2,7 +2,7 @@
  *
  * Every Python exception is caught here and becomes fmi2Error with its text in the log: nothing a
  * host sends can reach fmi2Fatal. The slave reports refused input during a call through
- * fem_pendulum_report_error (ctypes; fmi/slave.py), which also makes the call answer fmi2Error and is
+ * fem_pendulum_report_error (ctypes; fmi/fmi_logging.py), which also makes the call answer fmi2Error and is
  * logged whether or not debug logging is on, as errors should be. */
 #include "python_api.h"
 

@@ -13,6 +13,13 @@ Nothing a sample does stops the sweep: an exception becomes a row with status
 through an fmpy logger callback: the FMU names the parameter it refused). An
 fmi2Discard ends fmpy's loop early without an exception; a run that stops
 before the stop time is an error too.
+
+The FMU-only parameters (interface.FMU_ONLY_PARAMETERS) reach the FMU as in a
+direct run: with `output.vtk_folder` set, each sample writes its field output
+every `output.vtk_interval` into its own subfolder, VTK_FOLDER/SAMPLE_ID (on
+the worker's file system; a relative folder is relative to the worker's
+working directory), so that samples running at once do not overwrite each
+other's frames. Without it `output.vtk_interval` writes nothing, as in the FMU.
 """
 
 from __future__ import annotations
@@ -27,7 +34,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ...fmi.slave import ENUM_ALIASES
+from ...fmi.interface import scene_from_values
 from ...physics.scene import Scene
 from .figures import NEEDED, Figures, summarise
 from .samples import Value, start_values
@@ -36,6 +43,7 @@ Status = Literal["ok", "error"]
 OK: Status = "ok"
 ERROR: Status = "error"
 _WARNING = 1  # fmi2Warning: log messages at this status or worse go into an error row's message
+VTK_FOLDER = "output.vtk_folder"
 
 
 @dataclass(frozen=True)
@@ -135,7 +143,16 @@ def _callbacks(logger: Any) -> Any:
 
 def scene_of(values: dict[str, Value]) -> Scene:
     """The scene a sample's values describe (the FMU's defaults for the rest), for the swing energy."""
-    return Scene().with_values({name: value for name, value in values.items() if name not in ENUM_ALIASES})
+    return scene_from_values(values)
+
+
+def fmu_start_values(task: SampleTask) -> dict[str, Value]:
+    """The sample's start values for the FMU, its field output folder made its own (see the module's docstring)."""
+    values = start_values(task.values)
+    folder = str(values.get(VTK_FOLDER, "")).strip()
+    if folder:
+        values[VTK_FOLDER] = str(Path(folder) / task.sample_id)
+    return values
 
 
 def _logged(messages: list[tuple[int, str]]) -> str:
@@ -150,7 +167,7 @@ def simulate(loaded: LoadedFmu, task: SampleTask) -> np.ndarray:
         loaded.dir,
         model_description=loaded.md,
         fmu_instance=loaded.instance(),
-        start_values=start_values(task.values),
+        start_values=fmu_start_values(task),
         input=task.torque,
         output=list(dict.fromkeys(task.outputs + NEEDED)),
         stop_time=task.stop_time,

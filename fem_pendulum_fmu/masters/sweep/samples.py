@@ -50,6 +50,8 @@ def parse_value(name: str, text: str) -> Value:
     try:
         if var.items:
             return text if text in var.items else var.item_name(int(text))
+        if var.type == "String":
+            return text
         if var.type == "Boolean":
             if text.lower() not in ("true", "false", "1", "0"):
                 raise ValueError(text)
@@ -128,11 +130,11 @@ def samples(rows: list[dict], torque: Path | None = None) -> list[Sample]:
     return out
 
 
-def start_values(values: dict[str, Value]) -> dict[str, float | int | bool]:
+def start_values(values: dict[str, Value]) -> dict[str, Value]:
     """A sample's values as the FMU takes them: enumerations by number (1, 2, ...)."""
     ifc = interface.load()
-    out: dict[str, float | int | bool] = {}
+    out: dict[str, Value] = {}
     for name, value in values.items():
         var = ifc.by_name(name)
-        out[name] = var.item_number(value) if var.items and isinstance(value, str) else value  # type: ignore[assignment]
+        out[name] = var.item_number(value) if var.items and isinstance(value, str) else value
     return out
