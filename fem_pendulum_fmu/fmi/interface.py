@@ -17,7 +17,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, get_args
 
 from ..physics.scene import Scene
 
@@ -46,13 +46,20 @@ OUTPUT_FIELDS = {
 }
 
 
+VariableType = Literal["Real", "Integer", "Boolean", "Enumeration", "String"]
+Causality = Literal["parameter", "calculatedParameter", "input", "output", "local", "independent"]
+Variability = Literal["constant", "fixed", "tunable", "discrete", "continuous"]
+
+
 @dataclass(frozen=True)
 class Variable:
+    """One variable of the FMI interface as the template declares it."""
+
     name: str
     value_reference: int
-    type: str  # Real, Integer, Boolean, Enumeration, String
-    causality: str
-    variability: str
+    type: VariableType
+    causality: Causality
+    variability: Variability
     description: str
     start: float | int | bool | str | None = None
     unit: str | None = None
@@ -89,7 +96,7 @@ class Interface:
                 return v
         raise KeyError(name)
 
-    def of_causality(self, causality: str) -> tuple[Variable, ...]:
+    def of_causality(self, causality: Causality) -> tuple[Variable, ...]:
         return tuple(v for v in self.variables if v.causality == causality)
 
 
@@ -167,6 +174,14 @@ def _attribute(element: ET.Element, name: str) -> str:
     return value
 
 
+def _word(element: ET.Element, name: str, value: str | None, vocabulary: Any) -> Any:
+    """`value` if it is a word of the Literal `vocabulary`; ValueError naming it and the words otherwise."""
+    words = get_args(vocabulary)
+    if value not in words:
+        raise ValueError(f"{TEMPLATE_NAME}: <{element.tag}> {name} = {value!r}: allowed are {', '.join(words)}")
+    return value
+
+
 def _child(element: ET.Element, tag: str) -> ET.Element:
     """A required child of a template element; ValueError naming it when it is missing."""
     child = element.find(tag)
@@ -192,9 +207,9 @@ def _parse(path: str) -> Interface:
             Variable(
                 name=_attribute(sv, "name"),
                 value_reference=int(_attribute(sv, "valueReference")),
-                type=typed.tag,
-                causality=sv.get("causality", "local"),
-                variability=sv.get("variability", "continuous"),
+                type=_word(typed, "type", typed.tag, VariableType),
+                causality=_word(sv, "causality", sv.get("causality", "local"), Causality),
+                variability=_word(sv, "variability", sv.get("variability", "continuous"), Variability),
                 description=sv.get("description", ""),
                 start=_start(typed.tag, typed.get("start")),
                 unit=typed.get("unit"),
