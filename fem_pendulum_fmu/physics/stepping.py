@@ -228,10 +228,17 @@ def finish_advance(outputs: Outputs, min_gap: float, contact: ContactTally) -> f
     return min_gap
 
 
-def free_flight_tally(hold: float, dt: float) -> ContactTally:
-    """The contact tally of an advance of dt known to stay off the wall from a contact's hold `hold`:
-    no force, no impulse, the hold shrinking as `_hold_after` shrinks it."""
-    return ContactTally(hold=_hold_after(hold, 0.0, 0.0, dt))
+def finish_free_flight(outputs: Outputs, min_gap: float, hold: float, dt: float) -> float:
+    """`finish_advance` of an advance of dt known to stay off the wall, from a contact's hold `hold`:
+    its tally has no force, no impulse and the hold shrinking as `_hold_after` shrinks it, set here
+    without building a ContactTally or calling `_hold_after`: the rigid model's free-flight advance
+    takes 30.2 thousand instructions with this, 35.2 thousand with those (callgrind)."""
+    gap = outputs.gap
+    outputs.min_gap = min_gap = min_gap if min_gap < gap else gap
+    outputs.contact_force_max = outputs.contact_impulse = 0.0
+    decayed = hold - HOLD_DECAY * dt  # _hold_after(hold, 0.0, 0.0, dt): keep the two alike
+    outputs.contact_hold = decayed if decayed > 0.0 else 0.0
+    return min_gap
 
 
 def _hold_after(hold: float, gap0: float, gap1: float, dt: float) -> float:
@@ -239,7 +246,7 @@ def _hold_after(hold: float, gap0: float, gap1: float, dt: float) -> float:
     outside, the crossing of a step that enters or leaves contact placed by the gaps (linearly)."""
     if gap0 < 0.0 and gap1 < 0.0:
         return hold + dt
-    if gap0 >= 0.0 and gap1 >= 0.0:
+    if gap0 >= 0.0 and gap1 >= 0.0:  # (finish_free_flight has this branch inlined)
         decayed = hold - HOLD_DECAY * dt
         return decayed if decayed > 0.0 else 0.0
     inside = dt * (gap1 / (gap1 - gap0) if gap1 < 0.0 else gap0 / (gap0 - gap1))

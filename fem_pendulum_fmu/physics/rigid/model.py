@@ -29,7 +29,7 @@ from ..contact_time import effective_mass
 from ..mass_properties import gravity_moment, mass_properties
 from ..protocol import BodyField, ModelState, Outputs, check_advance_args, restore_advance_summary
 from ..scene import Scene, refuse_deformable_wall, validate
-from ..stepping import StepControl, SteppedModel, finish_advance, free_flight_tally
+from ..stepping import StepControl, SteppedModel, finish_free_flight
 from . import arc_contact as rigid_contact
 from .solve import Contact, StepSolver
 from .state import FIDELITY, RigidState
@@ -230,13 +230,13 @@ class RigidModel(SteppedModel[RigidState]):
         out = self._free_outputs(q1, w1, work1, cos_q1, t_end, gap1)
         # as the stepper reports it: the smallest gap at the step's ends (only the end's without a wall)
         min_gap = gap0 if contact_on else math.inf
-        self.last_min_gap = finish_advance(out, min_gap, free_flight_tally(last.contact_hold, dt))
+        self.last_min_gap = finish_free_flight(out, min_gap, last.contact_hold, dt)
         self._x, self.time, self._outputs = new_state(RigidState, (q1, w1, work1)), t_end, out
         return out
 
     def _free_outputs(self, q: float, w: float, work: float, cos_q: float, t: float, gap: float) -> Outputs:
         """`_compute_outputs` of a free-flight step's end (q, w, work) (off the block, at gap `gap`; cos_q
-        the cosine of q), no contact force; the advance's summary is left to `finish_advance`."""
+        the cosine of q), no contact force; the advance's summary is left to `finish_free_flight`."""
         kinetic = 0.5 * self.inertia * w * w
         potential = -self._mgd * cos_q
         total = kinetic + potential + 0.0  # as _compute_outputs: plus the (zero) contact energy
