@@ -1,4 +1,4 @@
-"""The rigid model's scalar solves and contact shortcuts (rigid/model.py, rigid/arc_contact.py).
+"""The rigid model's scalar solves and contact shortcuts (rigid/solve.py, rigid/model.py, rigid/arc_contact.py).
 
 A free-flight step takes one Newton update, accepted by an a-priori bound on the next one; a contact
 step's Newton stops once the next update, as quadratic convergence predicts it, would pass the
@@ -15,7 +15,7 @@ import pytest
 
 from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.rigid import arc_contact as rc
-from fem_pendulum_fmu.physics.rigid import model as rigid_module
+from fem_pendulum_fmu.physics.rigid import solve as rigid_solve
 from fem_pendulum_fmu.physics.scene import stiff
 
 FIRST_CONTACT = 0.2394  # s, the stiff scene released at 20 degrees (tests/test_rigid.py)
@@ -51,8 +51,8 @@ def test_free_flight_single_update_is_the_converged_step():
             for dt in (1e-5, 1e-3, 2e-3):
                 for torque in (0.0, -0.3, 2.0):
                     if abs(w0) <= 5.0:
-                        assert model._free_solve(q0, w0, dt, torque) is not None
-                    u = model._solve(q0, w0, dt, torque, False)
+                        assert model.solver.solve_free(q0, w0, dt, torque) is not None
+                    u = model.solver.solve(q0, w0, dt, torque, False)
                     if u == 0.0:  # at rest in the bottom, no torque
                         assert (q0, w0, torque) == (0.0, 0.0, 0.0)
                         continue
@@ -62,7 +62,7 @@ def test_free_flight_single_update_is_the_converged_step():
                         ref -= g / dg
                     c = 2.0 * model.inertia / (dt * dt)
                     scale = model._mgd + 0.5 * model.inertia * w0 * w0 + abs(torque * u)
-                    allowance = max(1e-15 * abs(ref) + 1e-20, rigid_module.ENERGY_ROUNDOFF * scale / (c * abs(ref)))
+                    allowance = max(1e-15 * abs(ref) + 1e-20, rigid_solve.ENERGY_ROUNDOFF * scale / (c * abs(ref)))
                     worst = max(worst, abs(u - ref) / allowance)
     assert worst <= 1.0
 
@@ -70,8 +70,8 @@ def test_free_flight_single_update_is_the_converged_step():
 def test_free_flight_advance_evaluates_gravity_once(monkeypatch):
     model = rigid()
     calls = []
-    original = rigid_module._gravity_quotient
-    monkeypatch.setattr(rigid_module, "_gravity_quotient", lambda *a: calls.append(a) or original(*a))
+    original = rigid_solve._gravity_quotient
+    monkeypatch.setattr(rigid_solve, "_gravity_quotient", lambda *a: calls.append(a) or original(*a))
     for k in range(1, 101):
         out = model.advance(k * 1e-3, 0.0)
         assert out.substeps == 1 and out.gap > 0.0
@@ -101,8 +101,8 @@ def test_contact_steps_balance_energy_and_take_two_evaluations(monkeypatch):
     test). Newton takes two contact evaluations per solve on average (measured 2.0; 3.5 before)."""
     model = rigid()
     evaluations = []
-    original = model._contact_quotient
-    monkeypatch.setattr(model, "_contact_quotient", lambda *a: evaluations.append(a) or original(*a))
+    original = model.solver.contact_quotient
+    monkeypatch.setattr(model.solver, "contact_quotient", lambda *a: evaluations.append(a) or original(*a))
     states = contact_run(model)
     assert min(model.gap_and_rate(x)[0] for x in states) < -50e-6  # deep in contact
     scale = model._mgd + max(0.5 * model.inertia * x[1] ** 2 for x in states)

@@ -140,12 +140,6 @@ class ContactTally:
     def impulse(self) -> np.ndarray:
         return np.array([self.impulse_x, self.impulse_y])
 
-    def report(self, outputs: Outputs) -> None:
-        """Set the outputs' contact_force_max, contact_impulse (the impulse's magnitude) and contact_hold."""
-        outputs.contact_force_max = self.force_max
-        outputs.contact_impulse = math.hypot(self.impulse_x, self.impulse_y)
-        outputs.contact_hold = self.hold
-
 
 @dataclass
 class AdvanceResult(Generic[X]):
@@ -154,6 +148,11 @@ class AdvanceResult(Generic[X]):
     rejected: int
     min_gap: float  # smallest gap seen at the internal steps of this advance (contacts between communication points)
     contact: ContactTally = field(default_factory=ContactTally)
+
+    def finish(self, outputs: Outputs) -> float:
+        """`finish_advance` with this advance's smallest gap and contact tally."""
+        c = self.contact
+        return finish_advance(outputs, self.min_gap, c.force_max, math.hypot(c.impulse_x, c.impulse_y), c.hold)
 
 
 def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, control: StepControl) -> AdvanceResult[X]:
@@ -218,20 +217,23 @@ def check_substeps(control: StepControl, substeps: int, t: float, t_end: float) 
         )
 
 
-def finish_advance(outputs: Outputs, min_gap: float, contact: ContactTally) -> float:
-    """The end of every fidelity's advance: the outputs at its end get the advance's smallest gap
-    (`min_gap` from its internal steps, or the end's gap if smaller) and its contact tally; returns
-    that smallest gap."""
+def finish_advance(outputs: Outputs, min_gap: float, force_max: float, impulse: float, hold: float) -> float:
+    """The end of every fidelity's advance, the shared stepper's (AdvanceResult.finish) and the rigid
+    model's free-flight step alike: the outputs at its end get the advance's smallest gap (`min_gap`
+    from its internal steps, or the end's gap if smaller), its largest contact force, the magnitude
+    of its contact impulse and the contact's hold; returns that smallest gap."""
     gap = outputs.gap
     outputs.min_gap = min_gap = min_gap if min_gap < gap else gap
-    contact.report(outputs)
+    outputs.contact_force_max = force_max
+    outputs.contact_impulse = impulse
+    outputs.contact_hold = hold
     return min_gap
 
 
-def free_flight_tally(hold: float, dt: float) -> ContactTally:
-    """The contact tally of an advance of dt known to stay off the wall from a contact's hold `hold`:
-    no force, no impulse, the hold shrinking as `_hold_after` shrinks it."""
-    return ContactTally(hold=_hold_after(hold, 0.0, 0.0, dt))
+def decayed_hold(hold: float, dt: float) -> float:
+    """A contact's hold after dt out of contact: shrunk by HOLD_DECAY of it, never below 0."""
+    decayed = hold - HOLD_DECAY * dt
+    return decayed if decayed > 0.0 else 0.0
 
 
 def _hold_after(hold: float, gap0: float, gap1: float, dt: float) -> float:
@@ -240,8 +242,7 @@ def _hold_after(hold: float, gap0: float, gap1: float, dt: float) -> float:
     if gap0 < 0.0 and gap1 < 0.0:
         return hold + dt
     if gap0 >= 0.0 and gap1 >= 0.0:
-        decayed = hold - HOLD_DECAY * dt
-        return decayed if decayed > 0.0 else 0.0
+        return decayed_hold(hold, dt)
     inside = dt * (gap1 / (gap1 - gap0) if gap1 < 0.0 else gap0 / (gap0 - gap1))
     return max(hold + inside - HOLD_DECAY * (dt - inside), 0.0)
 
@@ -356,7 +357,7 @@ class SteppedModel(Generic[X]):
         self._x = result.state
         self.time = float(t_end)
         self._outputs = self._compute_outputs(self._x, self.time, result.substeps)
-        self.last_min_gap = finish_advance(self._outputs, result.min_gap, result.contact)
+        self.last_min_gap = result.finish(self._outputs)
         return self._outputs
 
     def outputs(self) -> Outputs:

@@ -39,7 +39,7 @@ from ..protocol import (
     restore_advance_summary,
 )
 from ..scene import Scene, validate
-from ..stepping import StepControl, finish_advance
+from ..stepping import StepControl
 from .head import HeadBoundary
 from .newton import HeldJacobianNewton, JacobianPoint, Turn
 from .outputs import FemOutputs
@@ -231,7 +231,7 @@ class FemModel:
         self._state = result.state
         self.time = float(t_end)
         self._outputs = self.measures.of(self._state, self.time, result.substeps)
-        self.last_min_gap = finish_advance(self._outputs, result.min_gap, result.contact)
+        self.last_min_gap = result.finish(self._outputs)
         return self._outputs
 
     def outputs(self) -> Outputs:

@@ -13,96 +13,45 @@ midpoint) rule, with q = theta, V = gravity + contact energy:
 
 so that kinetic + V changes by exactly T (q1 - q0) per step: impacts neither
 gain nor lose energy whatever the step, and the rebound angle is the release
-angle. Step sizes (contact onset, ~30 steps per contact) come from stepping.py.
+angle. The step's scalar equation and its Newton solves are in rigid/solve.py,
+the state in rigid/state.py; step sizes (contact onset, ~30 steps per contact)
+come from stepping.py.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..contact_time import effective_mass
 from ..mass_properties import gravity_moment, mass_properties
-from ..protocol import (
-    BodyField,
-    ModelState,
-    Outputs,
-    check_advance_args,
-    check_state_fidelity,
-    model_state,
-    restore_advance_summary,
-)
+from ..protocol import BodyField, ModelState, Outputs, check_advance_args, restore_advance_summary
 from ..scene import Scene, refuse_deformable_wall, validate
-from ..stepping import StepControl, SteppedModel, finish_advance, free_flight_tally
+from ..stepping import StepControl, SteppedModel, decayed_hold, finish_advance
 from . import arc_contact as rigid_contact
+from .solve import Contact, StepSolver
+from .state import FIDELITY, RigidState
 
 if TYPE_CHECKING:
     from ..fields import VertexSampler
 
-NEWTON_MAX_IT = 80
-ENERGY_ROUNDOFF = 1e-15  # relative energy imbalance per step accepted as converged
-NEWTON_MARGIN = 10.0  # how much larger than quadratic convergence predicts the next Newton update is taken
-SMALL_STEP = 1e-9  # |q1 - q0| (rad) below which the contact difference quotient is replaced by a derivative
-# |q1 - q0| (rad) above which the contact quotient's derivative is exact (below, Newton's G' is approximate
-# and its convergence linear: no quadratic prediction of the next update there)
-EXACT_DERIVATIVE = 1e-6
 APPROACH_SPEED_FLOOR = 1e-3  # m/s: a head at rest near the block is assumed to approach at least this fast
 _SPEED_FLOOR2 = APPROACH_SPEED_FLOOR**2
 NEAR_FRACTION = 1.0  # contact scales are reported while the gap is below this many head radii
 FREE_MARGIN = 1e-9  # m of clearance a step must keep, beyond its sweep, to skip the contact law
 NO_CONTACT = rigid_contact.Penalty(0.0, 0.0, 0.0, 0.0, 0.0)
 TWO_PI = 2.0 * math.pi
+# new_state(RigidState, (theta, omega, work)): RigidState(...) at about half its cost (NamedTuple's __new__ is
+# a Python function; this is tuple's own), at every step
+new_state = tuple.__new__
 
 
-def _gravity_quotient(mgd: float, q0: float, u: float) -> tuple[float, float]:
-    """(V(q0 + u) - V(q0)) / u for gravity's V = -mgd cos q, and its derivative in u, free of
-    cancellation: mgd sin(qm) sin(h) / h with h = u / 2, qm = q0 + h."""
-    h = 0.5 * u
-    if abs(h) > 1e-4:
-        sin_h = math.sin(h)
-        sinc, dsinc = sin_h / h, (h * math.cos(h) - sin_h) / (h * h)
-    else:
-        h2 = h * h
-        sinc, dsinc = 1.0 - h2 / 6.0 + h2 * h2 / 120.0, h * (-1.0 / 3.0 + h2 / 30.0)
-    s_m, c_m = math.sin(q0 + h), math.cos(q0 + h)
-    return mgd * s_m * sinc, 0.5 * mgd * (c_m * sinc + s_m * dsinc)
-
-
-def _next_update(du: float, last: float) -> float:
-    """The Newton update after du as quadratic convergence predicts it from du and the update before,
-    `last` (K = du / last^2, the next K du^2), NEWTON_MARGIN times over; inf when du did not contract."""
-    if not last > du:
-        return math.inf
-    ratio = du / last
-    return NEWTON_MARGIN * du * ratio * ratio
-
-
-def _converged(du: float, size: float, c: float, scale: float) -> bool:
-    """Newton's stopping test on an update du to u of size `size`: du at round-off in u, or the energy
-    still unbalanced, c du |u|, at round-off of the energies the step moves (the contact energy
-    carries relative noise ~1e-11 from the positions' round-off, which bounds how far u can settle)."""
-    return du <= 1e-15 * size + 1e-20 or c * du * size <= ENERGY_ROUNDOFF * scale
-
-
-def _free_newton_gain(c: float, mgd: float) -> float:
-    """K with |u1 - u*| <= K (u1 - u0)^2 for a Newton update u0 -> u1 of the step without contact.
-
-    There G(u) = c (u - dt w0) - T + mgd int_0^1 sin(q0 + s u) ds, so |G''| <= mgd / 3 and
-    c - mgd / 2 <= G' <= c + mgd / 2. Newton's error is G''/(2 G'(u0)) (u0 - u*)^2 and
-    |u0 - u*| <= |u1 - u0| (c + mgd / 2) / (c - mgd / 2); inf when G' may vanish (c <= mgd)."""
-    if not c > mgd:
-        return math.inf
-    lo, hi = c - 0.5 * mgd, c + 0.5 * mgd
-    return mgd / 3.0 / (2.0 * lo) * (hi / lo) ** 2
-
-
-class RigidModel(SteppedModel[tuple]):
+class RigidModel(SteppedModel[RigidState]):
     """The rigid fidelity (fidelity "rigid").
 
-    State: theta, omega and the torque work. Outputs: strain energy and
+    State: a RigidState (rigid/state.py). Outputs: strain energy and
     von_mises_max are always 0 (a rigid body neither stores strain energy nor
     has a stress field worth reporting). theta is reported wrapped to
     [-pi, pi] like the FE model's atan2 proxy; the internal angle is
@@ -110,11 +59,11 @@ class RigidModel(SteppedModel[tuple]):
 
     wall.kind "none" (or contact.stiffness 0): no contact force; `gap` still
     reports the geometric signed distance to the block so that a master sees
-    where the wall would be. wall.kind "deformable" is not offered (models.create
+    where the wall would be. wall.kind "deformable" is not offered (fidelity.create
     rejects it); constructing one directly raises ValueError.
     """
 
-    fidelity = "rigid"
+    fidelity = FIDELITY
 
     def __init__(self, scene: Scene):
         self.scene = scene = validate(scene)  # with model.order resolved
@@ -138,10 +87,9 @@ class RigidModel(SteppedModel[tuple]):
         # energy law E = C delta^2.5 of a circle pressed into a flat face (delta << R)
         self._flat_law = 8.0 / 15.0 * self._hk * math.sqrt(2.0 * self._radius)
         self.control = StepControl.for_scene(scene)
-        self._memo: dict[float, tuple] = {}  # pure functions of the angle, so caching keeps runs deterministic
+        self._memo: dict[float, Contact] = {}  # pure functions of the angle, so caching keeps runs deterministic
         self._gap_memo: dict[float, tuple[float, float]] = {}
-        # the last free-flight step size dt, 2 I / dt^2, dt^2 / 2 and _free_newton_gain at it
-        self._free_consts = (math.nan, math.nan, math.nan, math.inf)
+        self.solver = StepSolver(self.inertia, self._mgd, self._contact)
         self._sampler: VertexSampler | None = None  # the mesh's vertices, for fields()
         self.time = 0.0
         self._x = self.state(scene.theta0, scene.omega0)
@@ -150,10 +98,10 @@ class RigidModel(SteppedModel[tuple]):
         self.last_min_gap = self._outputs.gap
 
     @staticmethod
-    def state(theta: float, omega: float, torque_work: float = 0.0) -> tuple[float, float, float]:
+    def state(theta: float, omega: float, torque_work: float = 0.0) -> RigidState:
         """The model's state at angle theta (rad) and angular velocity omega (rad/s): what `step`,
         `gap_and_rate` and `contact_scales` take."""
-        return (float(theta), float(omega), float(torque_work))
+        return RigidState(float(theta), float(omega), float(torque_work))
 
     # -------------------------------------------------------------- geometry
     def arc(self, theta: float) -> rigid_contact.Arc:
@@ -164,14 +112,14 @@ class RigidModel(SteppedModel[tuple]):
             (D * math.sin(theta), -D * math.cos(theta), self._radius, theta + self._arc_offset, self._arc_length),
         )
 
-    def _contact(self, q: float) -> tuple:
+    def _contact(self, q: float) -> Contact:
         """(pieces, Penalty) at angle q, memoised: Newton and the stepper revisit the same angles."""
         hit = self._memo.get(q)
         if hit is not None:
             return hit
         arc = self.arc(q)
         pieces = rigid_contact.inside_pieces(arc, self.block)  # [] at once for a circle clear of the block
-        result: tuple[Sequence[rigid_contact.Piece], rigid_contact.Penalty] = (
+        result: Contact = (
             pieces,
             rigid_contact.penalty(arc, self.block, self._hk, pieces) if pieces else NO_CONTACT,
         )
@@ -198,32 +146,20 @@ class RigidModel(SteppedModel[tuple]):
         return hit
 
     # ------------------------------------------------------------- stepping
-    def step(self, x: tuple, dt: float, torque: float) -> tuple | None:
+    def step(self, x: RigidState, dt: float, torque: float) -> RigidState | None:
         """One discrete-gradient step; None when the scalar solve fails (the stepper halves dt)."""
         q0, w0, work = x
-        u = self._solve(q0, w0, dt, torque, self.contact_on)
+        u = self.solver.solve(q0, w0, dt, torque, self.contact_on)
         if u is None:
             return None
-        return (q0 + u, 2.0 * u / dt - w0, work + torque * u)
+        return new_state(RigidState, (q0 + u, 2.0 * u / dt - w0, work + torque * u))
 
-    def _contact_quotient(self, q0: float, u: float, e0: float) -> tuple[float, float]:
-        """(E(q0 + u) - E(q0)) / u for the contact energy E, and its derivative in u; e0 = E(q0).
-        Minus the first is the contact torque of the step (the discrete gradient)."""
-        pen = self._contact(q0 + u)[1]
-        if abs(u) > SMALL_STEP:
-            qc = (pen.energy - e0) / u
-            dqc = (pen.d_energy - qc) / u if abs(u) > EXACT_DERIVATIVE else 0.5 * pen.d2_energy
-        else:  # E'(midpoint) to O(u^2)
-            qc = pen.d_energy - 0.5 * u * pen.d2_energy
-            dqc = 0.5 * pen.d2_energy
-        return qc, dqc
-
-    def contact_force(self, x: tuple[float, float, float]) -> float:
+    def contact_force(self, x: RigidState) -> float:
         """Magnitude of the wall's force on the head at state x (N)."""
         pen = self.contact_energy(x[0])
         return math.hypot(pen.fx, pen.fy)
 
-    def contact_impulse(self, x0: tuple[float, float, float], x1: tuple[float, float, float], dt: float) -> np.ndarray:
+    def contact_impulse(self, x0: RigidState, x1: RigidState, dt: float) -> np.ndarray:
         """The step's contact impulse (N.s, vector). The scheme applies the contact torque
         -(E(q1) - E(q0)) / (q1 - q0); the force is the penalty force at the midpoint angle scaled to
         that torque (its line of action the midpoint's), so the impulse's moment about the pivot is
@@ -232,7 +168,7 @@ class RigidModel(SteppedModel[tuple]):
         if not self.contact_on:
             return np.zeros(2)
         q0, q1 = x0[0], x1[0]
-        qc, _ = self._contact_quotient(q0, q1 - q0, self.contact_energy(q0).energy)
+        qc, _ = self.solver.contact_quotient(q0, q1 - q0, self.contact_energy(q0).energy)
         for q in (0.5 * (q0 + q1), q1, q0):
             fx, fy, moment = self._force_line(q)
             if moment != 0.0:
@@ -254,90 +190,6 @@ class RigidModel(SteppedModel[tuple]):
             hit = self._contact(q)
         pen = hit[1]
         return pen.fx, pen.fy, pen.d_energy
-
-    def _solve(self, q0: float, w0: float, dt: float, torque: float, contact: bool) -> float | None:
-        """The increment u = q1 - q0 solving G(u) = 0 (Newton, safeguarded by a bracket); `contact`
-        False leaves the contact energy out (a step that provably never reaches the block)."""
-        if not contact:
-            u_free = self._free_solve(q0, w0, dt, torque)
-            if u_free is not None:
-                return u_free
-        c = 2.0 * self.inertia / (dt * dt)
-        mgd = self._mgd
-        pen0 = self._contact(q0)[1] if contact else None
-        e0 = pen0.energy if pen0 is not None else 0.0
-        # predictor: G linearised about u = 0 (the explicit step with the force at q0, stiffened by the
-        # contact's and gravity's d2V/dq2 at q0: in contact the stiffness matters)
-        force0 = torque - mgd * math.sin(q0) - (pen0.d_energy if pen0 is not None else 0.0)
-        stiff = 0.5 * (mgd * math.cos(q0) + pen0.d2_energy) if pen0 is not None and pen0.d2_energy > 0.0 else 0.0
-        explicit = dt * w0 + 0.5 * dt * dt * force0 / self.inertia
-        u = u0 = (c * dt * w0 + force0) / (c + stiff) if stiff > 0.0 else explicit
-        scale = mgd + 0.5 * self.inertia * w0 * w0 + e0 + abs(torque * u)  # energies this step moves
-        lo, hi = -math.inf, math.inf
-        span = 0.0  # the widening stride, set the first time Newton leaves an open bracket (rarely)
-        last = 0.0  # the Newton update before this one (0: none, or a bisection came between)
-        for _ in range(NEWTON_MAX_IT):
-            # G(u) = c (u - dt w0) - T + (V(q0 + u) - V(q0)) / u
-            quot, dquot = _gravity_quotient(mgd, q0, u)
-            if contact:
-                qc, dqc = self._contact_quotient(q0, u, e0)
-                quot += qc
-                dquot += dqc
-            g, dg = c * (u - dt * w0) - torque + quot, c + dquot
-            if not (math.isfinite(g) and math.isfinite(dg)):
-                return None
-            if g == 0.0:
-                return u
-            if g < 0.0:
-                lo = u
-            else:
-                hi = u
-            u_new = u - g / dg if dg > 0.0 else math.nan
-            if lo <= u_new <= hi:
-                du = abs(u_new - u)
-                exact = not contact or abs(u) > EXACT_DERIVATIVE  # G' exact: quadratic convergence
-                ahead = _next_update(du, last) if exact else math.inf
-                if _converged(du if du < ahead else ahead, abs(u_new), c, scale):  # monotone: the smaller decides
-                    return u_new
-                last = du if exact else 0.0
-            if not lo < u_new < hi:  # Newton left the bracket (or G' <= 0): bisect or widen
-                last = 0.0
-                if math.isfinite(lo) and math.isfinite(hi):
-                    u_new = 0.5 * (lo + hi)
-                    if u_new == lo or u_new == hi or _converged(0.5 * (hi - lo), abs(u_new), c, scale):
-                        return u_new  # bracket exhausted at round-off, or as narrow as the stopping test asks
-                else:
-                    span = 2.0 * (span or max(abs(u0), dt * abs(w0), 1e-12))
-                    u_new = u + span if g < 0.0 else u - span
-            u = u_new
-        return None
-
-    def _free_solve(self, q0: float, w0: float, dt: float, torque: float) -> float | None:
-        """_solve without contact as one Newton update from the explicit predictor, accepted when the
-        next update, bounded a priori (_free_newton_gain), would pass the stopping test; None when it
-        would not (then _solve iterates). This is a free-flight step's whole solve."""
-        inertia, mgd = self.inertia, self._mgd
-        step, c, half_dt2, gain = self._free_consts
-        if step != dt:  # a new step size (free flight keeps one): its constants again
-            c, half_dt2 = 2.0 * inertia / (dt * dt), 0.5 * dt * dt
-            gain = _free_newton_gain(c, abs(mgd))
-            self._free_consts = (dt, c, half_dt2, gain)
-        u = dt * w0 + half_dt2 * (torque - mgd * math.sin(q0)) / inertia
-        quot, dquot = _gravity_quotient(mgd, q0, u)
-        g, dg = c * (u - dt * w0) - torque + quot, c + dquot
-        if not (dg > 0.0 and math.isfinite(g) and math.isfinite(dg)):
-            return None
-        if g == 0.0:
-            return u
-        u_new = u - g / dg
-        du, size = abs(u_new - u), abs(u_new)
-        bound = gain * du * du  # the next update's: accept if either passes
-        if bound < du:
-            du = bound
-        if du <= 1e-15 * size + 1e-20:  # _converged, inlined (every free-flight step's test), its
-            return u_new  # energy test only when needed
-        scale = mgd + 0.5 * inertia * w0 * w0 + abs(torque * u)
-        return u_new if c * du * size <= ENERGY_ROUNDOFF * scale else None
 
     # ------------------------------------------------------------- advance
     def advance(self, t_end: float, torque: float) -> Outputs:
@@ -362,30 +214,29 @@ class RigidModel(SteppedModel[tuple]):
         if dt > self.control.max_step or (contact_on and not gap0 > FREE_MARGIN):
             return None
         q0, w0, work = self._x
-        u = self._free_solve(q0, w0, dt, torque)
+        solver = self.solver
+        u = solver.solve_free(q0, w0, dt, torque)
         if u is None:
-            u = self._solve(q0, w0, dt, torque, False)
+            u = solver.solve(q0, w0, dt, torque, False)
         if u is None or (contact_on and not gap0 > self._reach * abs(u) + FREE_MARGIN):
             return None
-        q1 = q0 + u
-        x = (q1, 2.0 * u / dt - w0, work + torque * u)
+        q1, w1, work1 = q0 + u, 2.0 * u / dt - w0, work + torque * u
         D, cos_q1 = self._depth, math.cos(q1)
         gap1 = rigid_contact.clear_gap(
             D * math.sin(q1), -D * cos_q1, self._radius, q1 + self._arc_offset, self._arc_length, self.block
         )
         if gap1 is None:  # the arc's end is nearest: signed_gap's exact outside distance
             gap1 = rigid_contact.signed_gap(self.arc(q1), self.block)[0]
-        out = self._free_outputs(x, cos_q1, t_end, gap1)
+        out = self._free_outputs(q1, w1, work1, cos_q1, t_end, gap1)
         # as the stepper reports it: the smallest gap at the step's ends (only the end's without a wall)
         min_gap = gap0 if contact_on else math.inf
-        self.last_min_gap = finish_advance(out, min_gap, free_flight_tally(last.contact_hold, dt))
-        self._x, self.time, self._outputs = x, t_end, out
+        self.last_min_gap = finish_advance(out, min_gap, 0.0, 0.0, decayed_hold(last.contact_hold, dt))
+        self._x, self.time, self._outputs = new_state(RigidState, (q1, w1, work1)), t_end, out
         return out
 
-    def _free_outputs(self, x: tuple, cos_q: float, t: float, gap: float) -> Outputs:
-        """`_compute_outputs` of a free-flight step's end x (off the block, at gap `gap`; cos_q the cosine
-        of its angle), no contact force; the advance's summary is left to `finish_advance`."""
-        q, w, work = x
+    def _free_outputs(self, q: float, w: float, work: float, cos_q: float, t: float, gap: float) -> Outputs:
+        """`_compute_outputs` of a free-flight step's end (q, w, work) (off the block, at gap `gap`; cos_q
+        the cosine of q), no contact force; the advance's summary is left to `finish_advance`."""
         kinetic = 0.5 * self.inertia * w * w
         potential = -self._mgd * cos_q
         total = kinetic + potential + 0.0  # as _compute_outputs: plus the (zero) contact energy
@@ -395,7 +246,7 @@ class RigidModel(SteppedModel[tuple]):
         # potential, strain, contact, total, torque_work, von_mises_max, substeps
         return Outputs(t, theta, w, gap, 0.0, kinetic, potential, 0.0, 0.0, total, work, 0.0, 1)
 
-    def gap_and_rate(self, x: tuple) -> tuple[float, float]:
+    def gap_and_rate(self, x: RigidState) -> tuple[float, float]:
         """Signed gap and its rate for the stepper; (inf, 0) when there is no contact law to resolve."""
         if not self.contact_on:
             return math.inf, 0.0
@@ -403,7 +254,7 @@ class RigidModel(SteppedModel[tuple]):
         gap, slope = self.geometric_gap(q)
         return gap, slope * w
 
-    def contact_scales(self, x: tuple) -> tuple[float, float]:
+    def contact_scales(self, x: RigidState) -> tuple[float, float]:
         """(contact duration, largest penetration) of the contact in view; (inf, 0) when none.
 
         Energy available along the contact normal: contact energy + 1/2 m_eff rate^2 with
@@ -431,21 +282,11 @@ class RigidModel(SteppedModel[tuple]):
 
     # ------------------------------------------------------------- protocol
     def get_state(self) -> ModelState:
-        q, w, work = self._x
-        return model_state(self.fidelity, self.time, self._outputs, {"theta": q, "omega": w, "torque_work": work}, {})
+        return self._x.to_model_state(self.time, self._outputs)
 
     def set_state(self, state: ModelState) -> None:
-        check_state_fidelity(state, self.fidelity)
-        sc = state.scalars
-        missing = [k for k in ("theta", "omega", "torque_work") if k not in sc]
-        if missing:
-            raise ValueError(f"rigid model state lacks {', '.join(missing)}")
-        x = (float(sc["theta"]), float(sc["omega"]), float(sc["torque_work"]))
-        if not all(math.isfinite(v) for v in x):
-            raise ValueError(f"rigid model state has non-finite values: {x!r}")
-        self._x = x
-        self.time = float(state.time)
-        self._outputs = restore_advance_summary(state, self._compute_outputs(x, self.time, 0))
+        self._x, self.time = RigidState.from_model_state(state), float(state.time)
+        self._outputs = restore_advance_summary(state, self._compute_outputs(self._x, self.time, 0))
         self.last_min_gap = self._outputs.min_gap
 
     def fields(self) -> list[BodyField]:
@@ -462,14 +303,11 @@ class RigidModel(SteppedModel[tuple]):
         return [body_field(self._sampler, displacement, velocity, np.zeros(len(self._sampler.points)))]
 
     # -------------------------------------------------------------- outputs
-    def _compute_outputs(self, x: tuple, t: float, substeps: int, free_gap: float | None = None) -> Outputs:
-        """The outputs at state x; `free_gap`: the gap of a state known to be off the block."""
+    def _compute_outputs(self, x: RigidState, t: float, substeps: int) -> Outputs:
+        """The outputs at state x (`_free_outputs` those of a free-flight step, without the contact)."""
         q, w, work = x
-        if free_gap is None:
-            pen = self.contact_energy(q)
-            gap, _ = self.geometric_gap(q)
-        else:
-            pen, gap = NO_CONTACT, free_gap
+        pen = self.contact_energy(q)
+        gap, _ = self.geometric_gap(q)
         kinetic = 0.5 * self.inertia * w * w
         potential = -self._mgd * math.cos(q)
         total = kinetic + potential + pen.energy
