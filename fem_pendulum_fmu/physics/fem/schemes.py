@@ -3,7 +3,7 @@
 * `EnergyMomentum` (solver.scheme = energy_momentum, the model's own): the
   inertia is the midpoint rule, the elastic stress is the discrete gradient of
   the strain energy in C (material.averaged_pk2_stress pushed forward with F at
-  the midpoint), contact is the discrete-gradient penalty force of contact.py
+  the midpoint), contact is the discrete-gradient penalty force of contact_law.py
   and the follower torque acts at the midpoint configuration. Over every step
   the change of kinetic + gravity + strain + contact energy equals the work of
   the torque up to the Newton tolerance, so impacts neither gain nor lose energy.
@@ -44,8 +44,7 @@ from ngsolve import (
 from .. import material, stepping
 from ..fe_boundary import hinge_torque_load
 from ..scene import Material, Scene
-from . import contact as wall_contact
-from . import seed_stepping
+from . import contact_law, seed_stepping
 from .head import PairGuard
 from .residual import ElasticTerms, LinearTerms, SplitResidual
 from .space import FemSpace, FemState
@@ -228,7 +227,7 @@ def energy_momentum_form(space: FemSpace, inputs: StepInputs) -> StepForm:
     active, force = None, None
     if space.contact_on:
         pos, sc = space.pos, space.scene
-        force = wall_contact.discrete_gradient_force(pos + u0, pos + u, sc.block, sc.contact.stiffness)
+        force = contact_law.discrete_gradient_force(pos + u0, pos + u, sc.block, sc.contact.stiffness)
         active = _add_rigid_wall(form, space, du, force)
     wall, wall_residual, guard = None, None, None
     if space.wall_contact_on:
@@ -263,7 +262,7 @@ def newmark_form(space: FemSpace, inputs: StepInputs) -> StepForm:
     active = None
     if space.contact_on:
         sc = space.scene
-        d1, grad1 = wall_contact.depth_and_gradient(space.pos + u, sc.block)
+        d1, grad1 = contact_law.depth_and_gradient(space.pos + u, sc.block)
         force = -ngs.IfPos(d1, sc.contact.stiffness * d1, 0.0) * grad1
         active = _add_rigid_wall(form, space, du, force)
     if space.wall_contact_on:
