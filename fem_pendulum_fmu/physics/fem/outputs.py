@@ -20,8 +20,7 @@ from ..protocol import BodyField, Outputs
 from ..sparse import scipy_matrix
 from . import contact_law
 from .head import HeadBoundary
-from .schemes import StepInputs
-from .space import FemSpace, FemState
+from .space import FemSpace, FemState, StepInputs
 from .wall import CLEAR_OF_FACE, WallContact
 
 # The head's sample points are the Gauss points of the contact integrals' rule (fem/head.py): when the
@@ -73,7 +72,7 @@ class FemOutputs:
         h = sc.pendulum.thickness
         # work of a unit torque's follower load at the configuration gf_u over the displacement gf_v
         N = ngs.specialcf.normal(2)
-        unit_load = inputs.torque_scale * inputs.torque_weight * (Cof(Id(2) + Grad(gf_u).Trace()) * N)
+        unit_load = inputs.unit_torque_weight * (Cof(Id(2) + Grad(gf_u).Trace()) * N)
         # compiled (.Compile()): the integrals of the outputs cost a quarter as interpreted trees
         self._unit_torque_work_cf = InnerProduct(unit_load, space.gf_v).Compile()
         F = material.deformation_gradient(gf_u)
