@@ -61,7 +61,7 @@ class FemModel:
         self.space = fem_space(scene, refine_like_seed)
         self.scheme = scheme_for(scene)
         # the step control of every advance, chosen once: stepping.advance, or a seed scheme's rules
-        self._advance_steps: Stepper[FemState] = self.scheme.stepper
+        self._stepper: Stepper[FemState] = self.scheme.stepper
         self.inputs = step_inputs(self.space)
         self.form = self.scheme.build(self.space, self.inputs)
         self.head = HeadBoundary(self.space)
@@ -206,7 +206,7 @@ class FemModel:
         held = self.newton.held
         try:
             with ngs.TaskManager() if self.scene.model.threads > 1 else nullcontext():
-                result = self._advance_steps(self, self._state, self.time, t_end, torque, self.control)
+                result = self._stepper(self, self._state, self.time, t_end, torque, self.control)
         except StepFailed:
             # the held Jacobian is part of the state: put back the one from before the failed
             # advance, so that a retry continues exactly as if it had never been tried

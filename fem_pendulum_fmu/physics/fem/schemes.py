@@ -245,7 +245,7 @@ class EnergyMomentum:
     """The FE model's own scheme, stepped by stepping.py."""
 
     build = staticmethod(energy_momentum_form)
-    stepper = staticmethod(stepping.advance)
+    stepper = staticmethod(stepping.advance)  # the step control of its advances
     carries_acceleration = False
 
     def __init__(self, scene: Scene):
@@ -266,7 +266,7 @@ class SeedNewmark:
 
     def __init__(self, scene: Scene):
         self.name = scene.solver.scheme
-        self.stepper = seed_stepping.stepper(self.name)
+        self.stepper = seed_stepping.stepper(self.name)  # the step control of its advances
 
     def end_acceleration(self, xs: FemState, v1: np.ndarray, dt: float) -> np.ndarray:
         return 2.0 / dt * (v1 - xs.v) - xs.a

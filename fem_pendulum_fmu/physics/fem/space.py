@@ -61,7 +61,8 @@ class FemState:
         shape = arr.get("u", np.empty(0)).shape
         if shape != (n_displacements,):
             raise ValueError(
-                f"fem state of {shape} displacements does not fit this fem model ({n_displacements} displacement dofs)"
+                f"fem state with displacements of shape {shape} does not fit this fem model "
+                f"({n_displacements} displacement dofs)"
             )
         if carries_acceleration != ("a" in arr):
             raise ValueError("state of another time integration scheme (solver.scheme) than this fem model's")
