@@ -6,9 +6,10 @@ measured from cycle FIRST to the last (the first cycles still grow: the interpre
 library's own caches and heap arenas fill up).
 
 What used to stay behind after each free, and where it is fixed:
-* the FE model: bound methods of the model kept by its Newton solver (fem/model.py, `_weakly`) and the slave's
-  registered accessors and log handler, bound to the slave (fmi/slave.py `_register`, fmi/fmi_logging.py), made
-  reference cycles that only the garbage collector's full pass frees, rarely in a process that holds NGSolve;
+* the FE model: bound methods of the model kept by its Newton solver (now it holds the step loader, which refers
+  to no model: fem/step_loader.py) and the slave's registered accessors and log handler, bound to the slave
+  (fmi/slave.py `_register`, fmi/fmi_logging.py), made reference cycles that only the garbage collector's full
+  pass frees, rarely in a process that holds NGSolve;
   the binary now also calls the slave's release() at fmi2FreeInstance;
 * NGSolve's mapped integration points made by ElementTransformation(x, y), never freed (fem/residual.py,
   volume_rule; fem/wall.py, WallFace);

@@ -80,9 +80,6 @@ class HeadBoundary:
         self._distances = [(u, p, dist, nx, ny), *self._distances[:1]]
         return p, dist, nx, ny
 
-    def active_elements(self) -> np.ndarray:
-        return np.array(sorted(self.active_local), dtype=int)
-
     def reachable(self, xs: FemState, dt: float) -> np.ndarray:
         """Head elements (local indices) whose points could reach the block during a step of dt from xs."""
         dist = self.distances(xs.u)[1]
@@ -97,15 +94,15 @@ class HeadBoundary:
             bits.Set(int(e))
         self.active_local = set(int(i) for i in elements)
 
-    def covers(self, bits: ngs.BitArray, u1: np.ndarray) -> bool:
-        """True if every head point inside the block at the step's end was in the active set; else widen it."""
+    def widened_contact_set(self, u1: np.ndarray) -> np.ndarray | None:
+        """None if every head point inside the block at the step's end u1 is on the active set; else the
+        set widened to their elements (fem/step_loader.py activates it)."""
         dist = self.distances(u1)[1]
         touching = set(int(i) for i in np.unique(self.point_element[dist < 0.0]))
         missing = touching - self.active_local
         if not missing:
-            return True
-        self.activate(bits, np.array(sorted(self.active_local | missing), dtype=int))
-        return False
+            return None
+        return np.array(sorted(self.active_local | missing), dtype=int)
 
     def closest_point(self, xs: FemState) -> ClosestPoint:
         """The head point closest to the (deformed) wall and its rate.

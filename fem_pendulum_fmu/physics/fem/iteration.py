@@ -29,7 +29,7 @@ class _Csr(ctypes.Structure):
 
 class _Body(ctypes.Structure):
     _fields_ = [("q", _I), ("indptr", _P), ("indices", _P), ("data", _P), ("F0", _P), ("C0", _P)]
-    _fields_ += [("weights", _P), ("lam", _D), ("mu", _D), ("n_gauss", _I), ("gauss_s", _P), ("gauss_w", _P)]
+    _fields_ += [("weights", _P), ("lame_lambda", _D), ("mu", _D), ("n_gauss", _I), ("gauss_s", _P), ("gauss_w", _P)]
 
 
 class _Factors(ctypes.Structure):
@@ -38,7 +38,7 @@ class _Factors(ctypes.Structure):
 
 
 class _Iteration(ctypes.Structure):
-    """struct femp_iteration of fem/elastic_kernel.c, field for field."""
+    """struct femp_iteration of fem/elastic_kernel.c, field for field (the C names Lame's lambda `lam`)."""
 
     _fields_ = [("size", _I), ("n_disp", _I), ("nS", _I), ("n_bodies", _I), ("bodies", _Body * 2)]
     _fields_ += [("mass", _Csr), ("hinge", _Csr), ("torque", _Csr), ("constant", _P), ("wv", _P)]

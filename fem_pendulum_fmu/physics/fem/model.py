@@ -2,49 +2,46 @@
 
 `FemModel` puts together pieces that each hold one concern:
 
-* fem/space.py    the mesh, the spaces and the bodies on them; the state `FemState`;
-* fem/schemes.py  the step forms, one builder per time integration scheme: the
-                  energy-momentum scheme (ours: over every step the change of
-                  kinetic + gravity + strain + contact energy equals the work of the
-                  torque up to the Newton tolerance, so impacts neither gain nor lose
-                  energy) and the seed's Newmark rule (for the benchmarks only);
-* fem/newton.py   the nonlinear solve of a step with its held Jacobian;
-* fem/head.py     the head boundary's sample points: gap, contact set, meshed-wall contact;
-* fem/outputs.py  the outputs of a state.
+* fem/space.py        the mesh, the spaces and the bodies on them; the step forms' inputs
+                      `StepInputs`; the state `FemState` and its ModelState;
+* fem/schemes.py      the step forms, one builder per time integration scheme: the
+                      energy-momentum scheme (ours: over every step the change of
+                      kinetic + gravity + strain + contact energy equals the work of the
+                      torque up to the Newton tolerance, so impacts neither gain nor lose
+                      energy) and the seed's Newmark rule (for the benchmarks only);
+* fem/step_load.py    a step's inputs as a value (`StepLoad`), and the held Jacobian's point;
+* fem/step_loader.py  sets the step form's inputs from a StepLoad;
+* fem/newton.py       the nonlinear solve of a step with its held Jacobian;
+* fem/head.py         the head boundary's sample points: gap, contact set, meshed-wall contact;
+* fem/outputs.py      the outputs of a state.
 
-Step sizes come from stepping.py (or fem/seed_stepping.py for the seed's schemes).
+A step, in order: `advance` hands the state to the step control chosen with the
+scheme when the model is built (stepping.py, or fem/seed_stepping.py for the
+seed's schemes), which calls `step`; `step` makes the step's `StepLoad` and loads
+it (`load_step`), and gives it to the Newton solver with the start iterate.
 """
 
 from __future__ import annotations
 
 import math
-import weakref
-from collections.abc import Callable
 from contextlib import nullcontext
-from types import MethodType
-from typing import Any, cast
 
 import ngsolve as ngs
 import numpy as np
 from ngsolve import CF, x, y
 
 from ..contact_time import contact_time_scale, effective_mass
-from ..protocol import (
-    BodyField,
-    ModelState,
-    Outputs,
-    StepFailed,
-    check_advance_args,
-    model_state,
-    restore_advance_summary,
-)
+from ..protocol import BodyField, ModelState, Outputs, StepFailed, check_advance_args, restore_advance_summary
 from ..scene import Scene, validate
 from ..stepping import StepControl
 from .head import HeadBoundary
-from .newton import HeldJacobianNewton, JacobianPoint, Turn
+from .newton import HeldJacobianNewton, Turn
 from .outputs import FemOutputs
-from .schemes import scheme_for, step_inputs
-from .space import FemState, fem_space
+from .schemes import newmark_start_acceleration, scheme_for
+from .seed_stepping import Stepper
+from .space import FIDELITY, FemState, fem_space, step_inputs
+from .step_load import StepLoad
+from .step_loader import StepLoader
 
 # Compliant bodies: a step whose energy balance misses by more than this share of the energy in
 # motion is rejected and halved. The discrete gradient's Gauss rule is exact only to the strain
@@ -52,29 +49,10 @@ from .space import FemState, fem_space
 STEP_ENERGY_TOLERANCE = 1e-3
 
 
-def _weakly(method: Callable[..., Any]) -> Callable[..., Any]:
-    """A bound method of the model, called through a weak reference to the model. The Newton solver the
-    model owns keeps its callbacks (the model's `_load` and `_guess`) this way: bound methods made a
-    reference cycle model -> solver -> method -> model, which only the garbage collector frees (in a
-    process holding NGSolve, rarely: its full pass), so that every model dropped (an FMU instance freed)
-    kept its mesh, spaces and matrices until then (tests/test_fmu_memory.py). 0.15 us more a call, one
-    call a Newton solve."""
-    bound = cast(MethodType, method)
-    ref, function = weakref.ref(bound.__self__), bound.__func__
-
-    def call(*args: Any) -> Any:
-        model = ref()
-        if model is None:
-            raise ReferenceError("the FE model this solver belonged to is gone")
-        return function(model, *args)
-
-    return call
-
-
 class FemModel:
     """The full-fidelity model (fidelity "fem")."""
 
-    fidelity = "fem"
+    fidelity = FIDELITY
 
     def __init__(self, scene: Scene, refine_like_seed: bool = False):
         self.scene = scene = validate(scene)  # with model.order resolved
@@ -82,21 +60,24 @@ class FemModel:
         self.control = StepControl.for_scene(scene)
         self.space = fem_space(scene, refine_like_seed)
         self.scheme = scheme_for(scene)
+        # the step control of every advance, chosen once: stepping.advance, or a seed scheme's rules
+        self._stepper: Stepper[FemState] = self.scheme.stepper
         self.inputs = step_inputs(self.space)
         self.form = self.scheme.build(self.space, self.inputs)
         self.head = HeadBoundary(self.space)
         split = self.form.split
         strain = None if split is None else split.elastic.strain_energy
         self.measures = FemOutputs(self.space, self.inputs, self.head, strain)
+        self.loader = StepLoader(self.inputs, self.form, self.head)
         turn = Turn(self.space, self.measures.rotation_angle)
         residual = split or self.form.form.Apply
         inertia = None if split is None else (split.linear.mass, split.linear.inertia_coefficient)
         # the compiled Jacobian where the contact is the rigid wall's (or none); the meshed wall's is NGSolve's
         tangent = None if split is None or self.form.wall_residual is not None else split.jacobian
-        args = (_weakly(self._load), self.head.active_elements, turn, _weakly(self._guess), inertia, tangent)
+        args = (self.loader.load, turn, inertia, tangent)
         self.newton = HeldJacobianNewton(self.form.form, residual, self.space, *args)
         self.time = 0.0
-        self._state = self.scheme.start(self, self._initial_state())
+        self._state = self._start_state()
         self._outputs = self.measures.of(self._state, 0.0, 0)
         self.last_min_gap = self._outputs.gap
 
@@ -119,23 +100,25 @@ class FemModel:
         gf_v.Set(CF((-om * (s * x + c * y), om * (c * x - s * y))), definedon=pendulum)
         return FemState(gf_u.vec.FV().NumPy().copy(), gf_v.vec.FV().NumPy().copy(), np.zeros(2), 0.0)
 
-    # ------------------------------------------------------------- one step
-    def _load(self, u0: np.ndarray, v0: np.ndarray, dt: float, torque: float, active: np.ndarray | None) -> None:
-        """Set the step form's inputs: start state, size, torque, contact set, the meshed wall's pairs."""
-        self.inputs.set(u0, v0, dt, torque)
-        if self.form.split is not None:
-            self.form.split.load(u0, v0, dt, torque * self.inputs.torque_scale)
-        if self.form.active is not None and active is not None:  # both or neither: see load_step
-            self.head.activate(self.form.active, active)
-        self.form.update_wall_pairs(self.inputs.u0)
+    def _start_state(self) -> FemState:
+        """The initial state; the Newmark schemes' with the start acceleration of the equations of motion."""
+        state = self._initial_state()
+        if self.scheme.carries_acceleration:
+            zero = np.zeros(self.space.nV)
+            self.load_step(FemState(state.u, zero, state.hinge_multipliers, 0.0, zero.copy()), 1e-3, 0.0)
+            # at u = u0, v0 = a0 = 0 the inertia term vanishes: the static residual
+            state.a = newmark_start_acceleration(self.space, self.newton.residual(state.u, 0.0))
+        return state
 
-    def load_step(self, xs: FemState, dt: float, torque: float) -> None:
+    # ------------------------------------------------------------- one step
+    def load_step(self, xs: FemState, dt: float, torque: float) -> StepLoad:
         """Load a step of dt from xs, with contact on the head elements that can reach the block."""
         active = self.head.reachable(xs, dt) if self.form.active is not None else None
-        self._load(xs.u, xs.v, dt, torque, active)
-        self.scheme.prepare(self.inputs, xs)
+        step = StepLoad(xs.u, xs.v, dt, torque, active, xs.a)
+        self.loader.load(step)
+        return step
 
-    def _guess(self, xs: FemState, dt: float) -> np.ndarray:
+    def _guess(self, xs: FemState, step: StepLoad) -> np.ndarray:
         """Newton's start iterate: u0 + dt times the last step's mean velocity (u0 - u_prev) / dt_prev
         where no contact can act within the step, else u0 + dt v0. The midpoint rule's end velocity v0
         carries an alternating part in the modes a step does not resolve, which the mean over a step
@@ -143,13 +126,12 @@ class FemModel:
         1.2e-4 m (steel), from the mean velocity by 7.4e-4 and 5.7e-5 m (medians). Within reach of the
         wall the mean velocity of a step before the contact set changes is the worse guess: across an
         impact in 0.1 s doSteps it moved the energy balance from 1e-7 to 3e-7 of the energy moved."""
-        in_reach = bool(self.head.active_local) if self.form.active is not None else self.space.wall_contact_on
-        return xs.u + dt * (xs.v if xs.drift is None or in_reach else xs.drift)
+        in_reach = step.active.size > 0 if step.active is not None else self.space.wall_contact_on
+        return xs.u + step.dt * (xs.v if xs.drift is None or in_reach else xs.drift)
 
     def step(self, xs: FemState, dt: float, torque: float) -> FemState | None:
         """One step of the scheme; None when it cannot be taken (the stepper then halves dt)."""
-        self.load_step(xs, dt, torque)
-        u1 = self._solve_covering_contact(xs, dt, torque)
+        u1 = self._solve_covering_contact(xs, self.load_step(xs, dt, torque))
         if u1 is None or self.min_det_F(u1) <= 0.0:
             return None  # no convergence, or an element turned inside out
         v1 = 2.0 / dt * (u1 - xs.u) - xs.v
@@ -163,14 +145,16 @@ class FemModel:
                 return None  # the Gauss rule of the discrete gradient is off: a smaller step
         return x1
 
-    def _solve_covering_contact(self, xs: FemState, dt: float, torque: float) -> np.ndarray | None:
+    def _solve_covering_contact(self, xs: FemState, step: StepLoad) -> np.ndarray | None:
         """Solve; if a head point ends inside the block off the contact set, widen the set once and re-solve."""
         for _attempt in range(2):
-            u1 = self.newton.solve(xs, dt, torque)
+            u1 = self.newton.solve(step, self._guess(xs, step), xs.hinge_multipliers)
             if u1 is None:
                 return None
-            if self.form.active is None or self.head.covers(self.form.active, u1):
+            widened = self.loader.covering(step, u1)
+            if widened is None:
                 return u1
+            step = widened
         return None
 
     def _energy_of(self, s: FemState) -> tuple[float, float]:
@@ -222,7 +206,7 @@ class FemModel:
         held = self.newton.held
         try:
             with ngs.TaskManager() if self.scene.model.threads > 1 else nullcontext():
-                result = self.scheme.advance(self, self._state, self.time, t_end, torque, self.control)
+                result = self._stepper(self, self._state, self.time, t_end, torque, self.control)
         except StepFailed:
             # the held Jacobian is part of the state: put back the one from before the failed
             # advance, so that a retry continues exactly as if it had never been tried
@@ -241,48 +225,11 @@ class FemModel:
         return self.measures.fields(self._state)
 
     def get_state(self) -> ModelState:
-        s = self._state
-        scalars = {"torque_work": s.torque_work}
-        arrays = {"u": s.u.copy(), "v": s.v.copy(), "lam": s.lam.copy()}
-        if s.a is not None:
-            arrays["a"] = s.a.copy()
-        if s.drift is not None:
-            arrays["drift"] = s.drift.copy()
-        if self.newton.held is not None:
-            jp = self.newton.held
-            scalars.update(jac_dt=jp.dt, jac_torque=jp.torque, jac_dt_factorised=jp.dt_factorised)
-            arrays.update(jac_u0=jp.u0.copy(), jac_v0=jp.v0.copy(), jac_w=jp.w.copy(), jac_active=jp.active.copy())
-        return model_state(self.fidelity, self.time, self._outputs, scalars, arrays)
+        return self._state.to_model_state(self.time, self._outputs, self.newton.held)
 
     def set_state(self, state: ModelState) -> None:
-        nV = self.space.nV
-        if state.fidelity != "fem" or state.arrays.get("u", np.empty(0)).shape != (nV,):
-            raise ValueError(
-                f"state of fidelity {state.fidelity!r} does not fit this fem model ({nV} displacement dofs)"
-            )
-        arr, sc = state.arrays, state.scalars
-        newmark = self.scheme.carries_acceleration
-        if newmark != ("a" in arr):
-            raise ValueError("state of another time integration scheme (solver.scheme) than this fem model's")
-        self._state = FemState(
-            arr["u"].copy(),
-            arr["v"].copy(),
-            arr["lam"].copy(),
-            sc["torque_work"],
-            arr["a"].copy() if newmark else None,
-            drift=arr["drift"].copy() if "drift" in arr else None,
-        )
-        self.newton.held = None
-        if "jac_w" in arr:
-            self.newton.held = JacobianPoint(
-                arr["jac_u0"].copy(),
-                arr["jac_v0"].copy(),
-                arr["jac_w"].copy(),
-                sc["jac_dt"],
-                sc["jac_torque"],
-                arr["jac_active"].astype(int),
-                sc.get("jac_dt_factorised", 0.0),
-            )
+        nV, newmark = self.space.nV, self.scheme.carries_acceleration
+        self._state, self.newton.held = FemState.from_model_state(state, nV, newmark)
         self.newton.ready = False
         self.time = state.time
         self._outputs = restore_advance_summary(state, self.measures.of(self._state, self.time, 0))

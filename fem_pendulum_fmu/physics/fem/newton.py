@@ -15,9 +15,12 @@ pendulum's held Jacobian contracted too slowly after one step (its stiffness
 is 65 times its inertia at 1 ms steps) and was re-assembled in 228 of 330
 steps; with it, in 35 (docs/fem.md, "Profile and speed-up").
 
-Where the Jacobian was assembled (`JacobianPoint`) is part of the model's
-state, so that a restored model re-creates the very same matrix (and turns it
-by the same angle) and continues bit-identically.
+The solver is given each step's inputs as a value (`StepLoad`, loaded into the
+step form before the solve). Where the Jacobian was assembled (`JacobianPoint`,
+fem/step_load.py) is part of the model's state, so that a restored model
+re-creates the very same matrix (and turns it by the same angle) and continues
+bit-identically: the solver loads that step again (its loader, fem/step_loader.py)
+only to do so.
 """
 
 from __future__ import annotations
@@ -35,7 +38,8 @@ from .. import native
 from .iteration import FusedIteration
 from .lu import HeldFactor
 from .residual import SplitResidual
-from .space import FemSpace, FemState
+from .space import FemSpace
+from .step_load import JacobianPoint, StepLoad
 
 # With the residual compiled (fem/residual.py) an iteration costs about 0.16 ms on the rubber scene's mesh,
 # a re-assembly and factorisation about 8 ms: the held Jacobian is kept while the corrections shrink by at
@@ -67,36 +71,16 @@ class NewtonCounts:
     rescaled: int = 0  # refactorisations with the inertia term rescaled to a new step size
 
 
-@dataclass
-class JacobianPoint:
-    """The inputs the held Newton Jacobian was assembled at."""
-
-    u0: np.ndarray
-    v0: np.ndarray
-    w: np.ndarray
-    dt: float
-    torque: float
-    active: np.ndarray  # head elements with contact assembled (local indices)
-    dt_factorised: float = 0.0  # the step size its inertia term was rescaled to (0: dt, as assembled)
-
-    @property
-    def serves(self) -> float:
-        """The step size the factorised Jacobian is for."""
-        return self.dt_factorised or self.dt
-
-
 # The step form's inertia term, (mass matrix over X, its coefficient as a function of dt), where the
 # Jacobian of a new step size is the held one with the inertia term rescaled; None: re-assembled
 Inertia = tuple[sp.csr_matrix, Callable[[float], float]]
-# guess(start state, dt): Newton's start iterate of u1
-Guess = Callable[[FemState, float], np.ndarray]
 # tangent(free unknowns, pattern's CSC indptr, indices) -> jacobian(w): the step form's Jacobian at w as the
 # entries on that pattern (residual.SplitJacobian); None: NGSolve assembles the form's linearisation
 Tangent = Callable[[np.ndarray, np.ndarray, np.ndarray], Callable[[ngs.BaseVector], np.ndarray]]
-# load(u0, v0, dt, torque, active head elements or None): set the step form's inputs
 # residual(w, res): the step form's residual at w into res (ngsolve vectors)
 Residual = Callable[[ngs.BaseVector, ngs.BaseVector], None]
-Loader = Callable[[np.ndarray, np.ndarray, float, float, "np.ndarray | None"], None]
+# load(step): set the step form's inputs to a step's (fem/step_loader.py)
+Loader = Callable[[StepLoad], None]
 
 
 class Turn:
@@ -148,8 +132,8 @@ def too_slow(size: float, last: float, tol: float, left: int) -> bool:
 class HeldJacobianNewton:
     """Solves a step form for (u1, hinge multipliers), holding its Jacobian.
 
-    `load` sets the form's inputs (and its contact set) to those of a step;
-    `active_now` gives the contact set currently assembled."""
+    `load` sets the form's inputs (and its contact set) to those of a step: used only to rebuild a
+    restored Jacobian at the step it was assembled at."""
 
     def __init__(
         self,
@@ -157,9 +141,7 @@ class HeldJacobianNewton:
         residual: Residual,
         space: FemSpace,
         load: Loader,
-        active_now: Callable[[], np.ndarray],
         turn: Turn,
-        guess: Guess,
         inertia: Inertia | None = None,
         tangent: Tangent | None = None,
     ):
@@ -178,7 +160,7 @@ class HeldJacobianNewton:
         self._w_np = self.w.vec.FV().NumPy()  # the GridFunction's vector stays put
         self._lib = native.kernels()
         self._at = tuple(a.ctypes.data for a in (self._res_np, self._turned_np, self._corr_np, self._w_np))
-        self._load, self._active_now, self._guess = load, active_now, guess
+        self._load = load
         free, multipliers = np.array(space.X.FreeDofs(), dtype=bool), np.arange(space.X.ndof) >= space.nV
         self._factor = HeldFactor(free, None if inertia is None else inertia[0], multipliers)
         self._inertia_coeff = None if inertia is None else inertia[1]
@@ -201,32 +183,33 @@ class HeldJacobianNewton:
         """The hinge multipliers of the last solve."""
         return self.w.vec.FV().NumPy()[self._nV :].copy()
 
-    def residual(self, u: np.ndarray, lam: float | np.ndarray) -> ngs.BaseVector:
-        """The step form's residual at (u, lam) with the inputs as loaded (a vector of the solver's)."""
+    def residual(self, u: np.ndarray, multipliers: float | np.ndarray) -> ngs.BaseVector:
+        """The step form's residual at (u, hinge multipliers) with the inputs as loaded (a vector of the solver's)."""
         wv = self.w.vec.FV().NumPy()
-        wv[: self._nV], wv[self._nV :] = u, lam
+        wv[: self._nV], wv[self._nV :] = u, multipliers
         self._apply(self.w.vec, self._res)
         return self._res
 
-    def solve(self, xs: FemState, dt: float, torque: float) -> np.ndarray | None:
-        """u1 of the step from xs (inputs loaded); None when Newton does not converge."""
-        nV = self._nV
+    def solve(self, step: StepLoad, guess: np.ndarray, multipliers: np.ndarray) -> np.ndarray | None:
+        """u1 of the step (loaded) from the start iterate (guess of u1, hinge multipliers); None when
+        Newton does not converge."""
+        nV, dt = self._nV, step.dt
         wv = self._w_np
-        wv[:nV] = self._guess(xs, dt)
-        wv[nV:] = xs.lam
+        wv[:nV] = guess
+        wv[nV:] = multipliers
         res = self._res
-        scale = max(float(np.max(np.abs(dt * xs.v))), 1e-12)
+        scale = max(float(np.max(np.abs(dt * step.v0))), 1e-12)
         if self.held is not None and not self.ready:
-            self._rebuild_held(self.held, xs, dt, torque)
+            self._rebuild_held(self.held, step)
         refresh = self.held is None
         if self.held is not None and abs(self.held.serves - dt) > HELD_DT_CHANGE * dt:
             refresh = not self._rescale(dt)
         # the pendulum's rotation since the start of the step the held Jacobian was assembled in
-        turn = 0.0 if self.held is None else self._turn.angle(xs.u) - self._turn.angle(self.held.u0)
+        turn = 0.0 if self.held is None else self._turn.angle(step.u0) - self._turn.angle(self.held.load.u0)
         last, tol = math.inf, NEWTON_RTOL * scale + 1e-15
         for it in range(NEWTON_MAX_IT):
             if refresh:
-                self._refresh(xs, dt, torque)
+                self._refresh(step)
                 refresh = False
                 turn = 0.0
             if self._fused is not None and self._split is not None:
@@ -294,29 +277,29 @@ class HeldJacobianNewton:
         it (its stiffness part does not depend on dt); False where the form has no such term."""
         if self._inertia_coeff is None or self.held is None:
             return False
-        if not self._factor.factorise_shifted(self._inertia_coeff(dt) - self._inertia_coeff(self.held.dt)):
+        if not self._factor.factorise_shifted(self._inertia_coeff(dt) - self._inertia_coeff(self.held.load.dt)):
             return False
         self.counts.rescaled += 1
         # a new point, not a changed one: a failed advance puts back the one from before (FemModel.advance)
         self.held = replace(self.held, dt_factorised=dt)
         return True
 
-    def _refresh(self, xs: FemState, dt: float, torque: float) -> None:
-        self.held = JacobianPoint(
-            xs.u.copy(), xs.v.copy(), self.w.vec.FV().NumPy().copy(), dt, torque, self._active_now()
-        )
+    def _refresh(self, step: StepLoad) -> None:
+        """Assemble and factorise the Jacobian at the loaded step and the current iterate, and hold it there
+        (a0 left out: the Jacobian does not depend on it, and a state does not carry it)."""
+        at = replace(step, u0=step.u0.copy(), v0=step.v0.copy(), a0=None)
+        self.held = JacobianPoint(at, self.w.vec.FV().NumPy().copy())
         self._factorise()
         self.ready = True
 
-    def _rebuild_held(self, jp: JacobianPoint, xs: FemState, dt: float, torque: float) -> None:
-        """Re-create the held Jacobian (after a restore) at its recorded inputs, then restore the step's."""
+    def _rebuild_held(self, jp: JacobianPoint, step: StepLoad) -> None:
+        """Re-create the held Jacobian (after a restore) at its recorded step, then load `step` again."""
         w_now = self.w.vec.FV().NumPy().copy()
-        active_now = self._active_now()
-        self._load(jp.u0, jp.v0, jp.dt, jp.torque, jp.active)
+        self._load(jp.load)
         self.w.vec.FV().NumPy()[:] = jp.w
         self._factorise()
         if jp.dt_factorised:
             self._rescale(jp.dt_factorised)
         self.ready = True
-        self._load(xs.u, xs.v, dt, torque, active_now)
+        self._load(step)
         self.w.vec.FV().NumPy()[:] = w_now

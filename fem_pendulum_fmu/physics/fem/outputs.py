@@ -18,10 +18,9 @@ from .. import material
 from ..fields import VertexSampler, body_field
 from ..protocol import BodyField, Outputs
 from ..sparse import scipy_matrix
-from . import contact as wall_contact
+from . import contact_law
 from .head import HeadBoundary
-from .schemes import StepInputs
-from .space import FemSpace, FemState
+from .space import FemSpace, FemState, StepInputs
 from .wall import CLEAR_OF_FACE, WallContact
 
 # The head's sample points are the Gauss points of the contact integrals' rule (fem/head.py): when the
@@ -73,7 +72,7 @@ class FemOutputs:
         h = sc.pendulum.thickness
         # work of a unit torque's follower load at the configuration gf_u over the displacement gf_v
         N = ngs.specialcf.normal(2)
-        unit_load = inputs.torque_scale * inputs.torque_weight * (Cof(Id(2) + Grad(gf_u).Trace()) * N)
+        unit_load = inputs.unit_torque_weight * (Cof(Id(2) + Grad(gf_u).Trace()) * N)
         # compiled (.Compile()): the integrals of the outputs cost a quarter as interpreted trees
         self._unit_torque_work_cf = InnerProduct(unit_load, space.gf_v).Compile()
         F = material.deformation_gradient(gf_u)
@@ -86,13 +85,13 @@ class FemOutputs:
         self._volume_points = space.mesh.MapToAllElements(IntegrationRule(ngs.TRIG, 2 * sc.model.order), VOL)
         if space.contact_on:
             k = sc.contact.stiffness
-            d, grad = wall_contact.depth_and_gradient(space.pos + gf_u, sc.block)
-            self._contact_energy_cf = (h * wall_contact.penalty_energy(d, k)).Compile()
+            d, grad = contact_law.depth_and_gradient(space.pos + gf_u, sc.block)
+            self._contact_energy_cf = (h * contact_law.penalty_energy(d, k)).Compile()
             self._contact_force_cf = (h * ngs.IfPos(d, k * d, 0.0) * (-grad)).Compile()
             # the energy-momentum form's contact term of a step from gf_u0 to gf_u (fem/schemes.py)
             self._gf_u0 = ngs.GridFunction(space.V)
             self._dg_force_cf = (
-                h * wall_contact.discrete_gradient_force(space.pos + self._gf_u0, space.pos + gf_u, sc.block, k)
+                h * contact_law.discrete_gradient_force(space.pos + self._gf_u0, space.pos + gf_u, sc.block, k)
             ).Compile()
 
     def torque_work_increment(self, u0: np.ndarray, u1: np.ndarray, torque: float) -> float:

@@ -183,7 +183,7 @@ class _Body:
     """One body's rule and material, in the arrays the kernel reads."""
 
     rule: VolumeRule
-    lam: float
+    lame_lambda: float  # Lame's first parameter
     mu: float
     gauss_s: np.ndarray  # the discrete gradient's Gauss points on [0, 1] and weights
     gauss_w: np.ndarray
@@ -197,7 +197,7 @@ class _Body:
         rule = self.rule
         head = (len(rule.weights), self.indptr.ctypes.data, self.indices.ctypes.data, rule.grad.data.ctypes.data, nS)
         middle: tuple[float, ...] = (self.F0.ctypes.data, self.C0.ctypes.data, rule.weights.ctypes.data)
-        middle += (self.lam, self.mu, len(self.gauss_w), self.gauss_s.ctypes.data, self.gauss_w.ctypes.data)
+        middle += (self.lame_lambda, self.mu, len(self.gauss_w), self.gauss_s.ctypes.data, self.gauss_w.ctypes.data)
         return head, middle
 
 
@@ -308,19 +308,19 @@ class ElasticTerms:
             u = np.ascontiguousarray(u, dtype=float)
             at = u.ctypes.data
             return sum(
-                self._lib.femp_strain_energy(*head, at, b.rule.weights.ctypes.data, b.lam, b.mu)
+                self._lib.femp_strain_energy(*head, at, b.rule.weights.ctypes.data, b.lame_lambda, b.mu)
                 for (head, _), b in zip(self._args, self._bodies, strict=True)
             )
         total = 0.0
         for b in self._bodies:
             C = points.right_cauchy_green(self._deformation_gradient(b.rule, u))
-            total += float(b.rule.weights @ points.energy_density(C, b.lam, b.mu))
+            total += float(b.rule.weights @ points.energy_density(C, b.lame_lambda, b.mu))
         return total
 
     def _add_numpy(self, b: _Body, u: np.ndarray, out: np.ndarray) -> None:
         nS, F0 = self.nS, b.F0.T
         F1 = self._deformation_gradient(b.rule, u)
-        S = points.averaged_pk2_stress(b.C0.T, points.right_cauchy_green(F1), b.lam, b.mu, len(b.gauss_w))
+        S = points.averaged_pk2_stress(b.C0.T, points.right_cauchy_green(F1), b.lame_lambda, b.mu, len(b.gauss_w))
         wP = b.rule.weights * points.first_piola(0.5 * (F0 + F1), S)
         res = b.rule.grad.T @ np.column_stack((np.concatenate((wP[0], wP[1])), np.concatenate((wP[2], wP[3]))))
         out[:nS] += res[:, 0]

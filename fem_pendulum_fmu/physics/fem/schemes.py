@@ -3,7 +3,7 @@
 * `EnergyMomentum` (solver.scheme = energy_momentum, the model's own): the
   inertia is the midpoint rule, the elastic stress is the discrete gradient of
   the strain energy in C (material.averaged_pk2_stress pushed forward with F at
-  the midpoint), contact is the discrete-gradient penalty force of contact.py
+  the midpoint), contact is the discrete-gradient penalty force of contact_law.py
   and the follower torque acts at the midpoint configuration. Over every step
   the change of kinetic + gravity + strain + contact energy equals the work of
   the torque up to the Newton tolerance, so impacts neither gain nor lose energy.
@@ -15,7 +15,7 @@
 
 A step form is the residual of one step in the unknowns (u1, hinge
 multipliers); its linearisation is the Newton Jacobian (fem/newton.py). It
-reads the step's start state, size and torque from `StepInputs`.
+reads the step's start state, size and torque from `StepInputs` (fem/space.py).
 """
 
 from __future__ import annotations
@@ -23,7 +23,6 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import ngsolve as ngs
 import numpy as np
@@ -37,18 +36,15 @@ from ngsolve import (
     GridFunction,
     Id,
     InnerProduct,
-    Parameter,
     specialcf,
 )
 
 from .. import material, stepping
-from ..fe_boundary import hinge_torque_load
 from ..scene import Material, Scene
-from . import contact as wall_contact
-from . import seed_stepping
+from . import contact_law, seed_stepping
 from .head import PairGuard
 from .residual import ElasticTerms, LinearTerms, SplitResidual
-from .space import FemSpace, FemState
+from .space import FemSpace, FemState, StepInputs
 from .wall import (
     NO_PAIRS,
     WALL_CONTACT_INTORDER,
@@ -57,34 +53,6 @@ from .wall import (
     contact_boundary,
     discrete_gradient_contact,
 )
-
-if TYPE_CHECKING:
-    from .model import FemModel
-
-
-@dataclass
-class StepInputs:
-    """What a step form reads besides its unknowns: the start state, the step size and the torque load."""
-
-    u0: GridFunction
-    v0: GridFunction
-    a0: GridFunction  # start acceleration: read by the Newmark form only
-    dt: Parameter
-    torque_load: Parameter  # the torque times torque_scale
-    torque_weight: CoefficientFunction  # the hinge edge's load weight x / w (coefficient function)
-    torque_scale: float  # 1 / moment of the unit-weight load
-
-    def set(self, u0: np.ndarray, v0: np.ndarray, dt: float, torque: float) -> None:
-        self.dt.Set(dt)
-        self.torque_load.Set(torque * self.torque_scale)
-        self.u0.vec.FV().NumPy()[:] = u0
-        self.v0.vec.FV().NumPy()[:] = v0
-
-
-def step_inputs(space: FemSpace) -> StepInputs:
-    weight, scale = hinge_torque_load(space.mesh, space.scene.geometry)
-    V = space.V
-    return StepInputs(GridFunction(V), GridFunction(V), GridFunction(V), Parameter(1e-3), Parameter(0.0), weight, scale)
 
 
 @dataclass
@@ -228,7 +196,7 @@ def energy_momentum_form(space: FemSpace, inputs: StepInputs) -> StepForm:
     active, force = None, None
     if space.contact_on:
         pos, sc = space.pos, space.scene
-        force = wall_contact.discrete_gradient_force(pos + u0, pos + u, sc.block, sc.contact.stiffness)
+        force = contact_law.discrete_gradient_force(pos + u0, pos + u, sc.block, sc.contact.stiffness)
         active = _add_rigid_wall(form, space, du, force)
     wall, wall_residual, guard = None, None, None
     if space.wall_contact_on:
@@ -263,7 +231,7 @@ def newmark_form(space: FemSpace, inputs: StepInputs) -> StepForm:
     active = None
     if space.contact_on:
         sc = space.scene
-        d1, grad1 = wall_contact.depth_and_gradient(space.pos + u, sc.block)
+        d1, grad1 = contact_law.depth_and_gradient(space.pos + u, sc.block)
         force = -ngs.IfPos(d1, sc.contact.stiffness * d1, 0.0) * grad1
         active = _add_rigid_wall(form, space, du, force)
     if space.wall_contact_on:
@@ -277,30 +245,20 @@ class EnergyMomentum:
     """The FE model's own scheme, stepped by stepping.py."""
 
     build = staticmethod(energy_momentum_form)
+    stepper = staticmethod(stepping.advance)  # the step control of its advances
     carries_acceleration = False
 
     def __init__(self, scene: Scene):
         # compliant bodies: each step's energy balance is checked (FemModel.step)
         self.energy_guard = scene.pendulum.soft
 
-    def start(self, model: FemModel, state: FemState) -> FemState:
-        return state
-
-    def prepare(self, inputs: StepInputs, xs: FemState) -> None:
-        """Nothing beyond the start state, size and torque."""
-
     def end_acceleration(self, xs: FemState, v1: np.ndarray, dt: float) -> None:
         return None
-
-    def advance(
-        self, model: FemModel, state: FemState, t: float, t_end: float, torque: float, control: stepping.StepControl
-    ) -> stepping.AdvanceResult:
-        return stepping.advance(model, state, t, t_end, torque, control)
 
 
 class SeedNewmark:
     """The seed tutorial's trapezoidal Newmark rule with its step-size rules (`name`: newmark_fixed or
-    newmark_gap_rule); its state carries the acceleration."""
+    newmark_gap_rule, fem/seed_stepping.py); its state carries the acceleration."""
 
     build = staticmethod(newmark_form)
     carries_acceleration = True
@@ -308,39 +266,28 @@ class SeedNewmark:
 
     def __init__(self, scene: Scene):
         self.name = scene.solver.scheme
-
-    def start(self, model: FemModel, state: FemState) -> FemState:
-        """The state with Newmark's start acceleration from the equations of motion (M a0 = f(u0), hinge held).
-
-        The seed starts from a0 = 0, an error that the trapezoidal rule never damps; a consistent start
-        gives its scheme the fairest comparison. The velocity term of the start (centripetal) is left
-        out, as omega0 is 0 in the benchmarks."""
-        space = model.space
-        nV, zero = space.nV, np.zeros(space.nV)
-        model.load_step(FemState(state.u, zero, state.lam, 0.0, zero.copy()), 1e-3, 0.0)
-        # at u = u0, v0 = a0 = 0 the inertia term vanishes: the static residual
-        res = model.newton.residual(state.u, 0.0)
-        (u, q1, q2), (du, p1, p2) = space.X.TnT()
-        h = space.scene.pendulum.thickness
-        mass = BilinearForm(space.X)
-        mass += (q1 * du[0] + q2 * du[1] + p1 * u[0] + p2 * u[1]) * ngs.ds("hinge")
-        for region, mat in space.bodies:
-            mass += mat.rho * h * InnerProduct(u, du) * ngs.dx(region)
-        mass.Assemble()
-        acc = (mass.mat.Inverse(space.X.FreeDofs(), inverse="umfpack") * res).Evaluate().FV().NumPy()
-        state.a = -acc[:nV].copy()
-        return state
-
-    def prepare(self, inputs: StepInputs, xs: FemState) -> None:
-        inputs.a0.vec.FV().NumPy()[:] = xs.a
+        self.stepper = seed_stepping.stepper(self.name)  # the step control of its advances
 
     def end_acceleration(self, xs: FemState, v1: np.ndarray, dt: float) -> np.ndarray:
         return 2.0 / dt * (v1 - xs.v) - xs.a
 
-    def advance(
-        self, model: FemModel, state: FemState, t: float, t_end: float, torque: float, control: stepping.StepControl
-    ) -> stepping.AdvanceResult:
-        return seed_stepping.advance(model, state, t, t_end, torque, self.name, control)
+
+def newmark_start_acceleration(space: FemSpace, static_residual: ngs.BaseVector) -> np.ndarray:
+    """Newmark's start acceleration from the equations of motion, M a0 = f(u0) with the hinge held, given the
+    Newmark form's residual at u0 with v0 = a0 = 0 (where its inertia term vanishes).
+
+    The seed starts from a0 = 0, an error that the trapezoidal rule never damps; a consistent start
+    gives its scheme the fairest comparison. The velocity term of the start (centripetal) is left
+    out, as omega0 is 0 in the benchmarks."""
+    (u, q1, q2), (du, p1, p2) = space.X.TnT()
+    h = space.scene.pendulum.thickness
+    mass = BilinearForm(space.X)
+    mass += (q1 * du[0] + q2 * du[1] + p1 * u[0] + p2 * u[1]) * ngs.ds("hinge")
+    for region, mat in space.bodies:
+        mass += mat.rho * h * InnerProduct(u, du) * ngs.dx(region)
+    mass.Assemble()
+    acc = (mass.mat.Inverse(space.X.FreeDofs(), inverse="umfpack") * static_residual).Evaluate().FV().NumPy()
+    return -acc[: space.nV].copy()
 
 
 def scheme_for(scene: Scene) -> EnergyMomentum | SeedNewmark:

@@ -13,10 +13,15 @@ fails is retried at half the size, down to `min_step` (StepFailed below it).
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 
 from ..protocol import StepFailed
 from ..stepping import AdvanceResult, ContactTally, StepControl, Steppable, X, check_substeps
+
+# an advance's step control: stepping.advance, or this module's rules of one scheme (`stepper`)
+Stepper = Callable[[Steppable[X], X, float, float, float, StepControl], AdvanceResult[X]]
 
 GAP_RULE = ((1e-3, 1e-4), (5e-3, 5e-4), (1e-2, 1e-3))  # (gap below, step), the seed's thresholds
 
@@ -29,8 +34,13 @@ def gap_rule_step(gap: float, base: float) -> float:
     return base
 
 
+def stepper(scheme: str) -> Stepper:
+    """The advance of a seed scheme (newmark_fixed or newmark_gap_rule), called as stepping.advance is."""
+    return functools.partial(advance, scheme=scheme)
+
+
 def advance(
-    model: Steppable[X], x: X, t: float, t_end: float, torque: float, scheme: str, control: StepControl
+    model: Steppable[X], x: X, t: float, t_end: float, torque: float, control: StepControl, scheme: str
 ) -> AdvanceResult[X]:
     """Integrate from t to t_end with the seed's step sizes; raises StepFailed like stepping.advance."""
     substeps = rejected = 0

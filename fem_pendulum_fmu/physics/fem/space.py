@@ -1,4 +1,5 @@
-"""The FE model's discretisation of a scene (mesh, spaces, the bodies on it, evaluation fields) and its state.
+"""The FE model's discretisation of a scene (mesh, spaces, the bodies on it, evaluation fields), the
+step forms' inputs on it, and the model's state.
 
 Everything else of the FE model (the step forms of fem/schemes.py, the head
 sampling of fem/head.py, the outputs of fem/outputs.py) is built on one
@@ -10,11 +11,15 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from ngsolve import CF, CoefficientFunction, FESpace, GridFunction, Mesh, NumberSpace, VectorH1, x, y
+from ngsolve import CF, CoefficientFunction, FESpace, GridFunction, Mesh, NumberSpace, Parameter, VectorH1, x, y
 
+from ..fe_boundary import hinge_torque_load
 from ..geometry import make_mesh
+from ..protocol import ModelState, Outputs, check_state_fidelity, model_state
 from ..scene import Material, Scene
+from .step_load import JacobianPoint, StepLoad
 
+FIDELITY = "fem"
 DEFORMABLE_WALL_FACE_SIZE = 0.005  # m; contact zone on the wall face is ~5 mm wide
 
 
@@ -24,11 +29,52 @@ class FemState:
 
     u: np.ndarray
     v: np.ndarray
-    lam: np.ndarray  # the hinge multipliers
+    hinge_multipliers: np.ndarray  # the hinge constraint's Lagrange multipliers (a state's "lam")
     torque_work: float
     a: np.ndarray | None = None  # acceleration, carried by the Newmark schemes only
     drift: np.ndarray | None = None  # the mean velocity (u1 - u0) / dt of the energy-momentum step that led here
     energy: tuple[float, float] | None = None  # (total, in motion), computed when the energy guard asks
+
+    def to_model_state(self, time: float, outputs: Outputs, held_jacobian: JacobianPoint | None) -> ModelState:
+        """The model's state at this instant: its arrays (copies), the held Jacobian's point, and the
+        advance summary of `outputs` (protocol.model_state)."""
+        scalars = {"torque_work": self.torque_work}
+        arrays = {"u": self.u.copy(), "v": self.v.copy(), "lam": self.hinge_multipliers.copy()}
+        if self.a is not None:
+            arrays["a"] = self.a.copy()
+        if self.drift is not None:
+            arrays["drift"] = self.drift.copy()
+        if held_jacobian is not None:
+            jac_scalars, jac_arrays = held_jacobian.to_entries()
+            scalars.update(jac_scalars)
+            arrays.update(jac_arrays)
+        return model_state(FIDELITY, time, outputs, scalars, arrays)
+
+    @classmethod
+    def from_model_state(
+        cls, state: ModelState, n_displacements: int, carries_acceleration: bool
+    ) -> tuple[FemState, JacobianPoint | None]:
+        """Inverse of to_model_state (the arrays copied), for a model of n_displacements displacement dofs
+        whose scheme carries the acceleration or not; ValueError for a state that does not fit it."""
+        check_state_fidelity(state, FIDELITY)
+        arr, sc = state.arrays, state.scalars
+        shape = arr.get("u", np.empty(0)).shape
+        if shape != (n_displacements,):
+            raise ValueError(
+                f"fem state with displacements of shape {shape} does not fit this fem model "
+                f"({n_displacements} displacement dofs)"
+            )
+        if carries_acceleration != ("a" in arr):
+            raise ValueError("state of another time integration scheme (solver.scheme) than this fem model's")
+        fem_state = cls(
+            arr["u"].copy(),
+            arr["v"].copy(),
+            arr["lam"].copy(),
+            sc["torque_work"],
+            arr["a"].copy() if carries_acceleration else None,
+            drift=arr["drift"].copy() if "drift" in arr else None,
+        )
+        return fem_state, JacobianPoint.from_entries(sc, arr) if "jac_w" in arr else None
 
 
 @dataclass
@@ -88,3 +134,41 @@ def fem_space(scene: Scene, refine_like_seed: bool = False) -> FemSpace:
         gf_u=GridFunction(V),
         gf_v=GridFunction(V),
     )
+
+
+@dataclass
+class StepInputs:
+    """What a step form reads besides its unknowns: the start state, the step size and the torque load
+    (ngsolve fields and parameters on the space, set from a StepLoad by fem/step_loader.py)."""
+
+    u0: GridFunction
+    v0: GridFunction
+    a0: GridFunction  # start acceleration: read by the Newmark form only
+    dt: Parameter
+    torque_load: Parameter  # the torque times torque_scale
+    torque_weight: CoefficientFunction  # the hinge edge's load weight x / w (coefficient function)
+    torque_scale: float  # 1 / moment of the unit-weight load
+
+    def torque_load_of(self, torque: float) -> float:
+        """The torque (N.m) as the forms take it: the factor on the unit-weight load (the one place it is scaled)."""
+        return torque * self.torque_scale
+
+    @property
+    def unit_torque_weight(self) -> CoefficientFunction:
+        """The hinge edge's load weight of a unit torque (1 N.m), torque_scale x / w."""
+        return self.torque_scale * self.torque_weight
+
+    def set(self, load: StepLoad, torque_load: float) -> None:
+        """Set the inputs to a step's, its torque as torque_load_of gives it."""
+        self.dt.Set(load.dt)
+        self.torque_load.Set(torque_load)
+        self.u0.vec.FV().NumPy()[:] = load.u0
+        self.v0.vec.FV().NumPy()[:] = load.v0
+        if load.a0 is not None:
+            self.a0.vec.FV().NumPy()[:] = load.a0
+
+
+def step_inputs(space: FemSpace) -> StepInputs:
+    weight, scale = hinge_torque_load(space.mesh, space.scene.geometry)
+    V = space.V
+    return StepInputs(GridFunction(V), GridFunction(V), GridFunction(V), Parameter(1e-3), Parameter(0.0), weight, scale)

@@ -25,7 +25,7 @@ import scipy.sparse
 from ngsolve import BND, CF, InnerProduct, IntegrationRule, specialcf
 from ngsolve.fem import BaseMappedIntegrationPoint
 
-from . import contact as wall_contact
+from ..scene import WallBlock
 from .space import FemSpace
 
 WALL_SEARCH_DISTANCE = 0.005  # m; the largest ContactBoundary pairing radius
@@ -158,7 +158,7 @@ class WallFace:
         values = (self._sample @ u).reshape(2, self._n_seg, len(self.nodes))
         return np.stack([np.sum(basis * values[c, seg], axis=1) for c in (0, 1)], axis=1)
 
-    def shift(self, p: np.ndarray, u: np.ndarray, block: wall_contact.WallBlock) -> np.ndarray:
+    def shift(self, p: np.ndarray, u: np.ndarray, block: WallBlock) -> np.ndarray:
         """Displacement of the face point level with each point p (zero for points not level with the face,
         or farther than SHIFT_RANGE from it): the reference height y0 of the face point whose deformed
         height is p_y, y0 + u_y(y0) = p_y, by one fixed-point step from y0 = p_y (u_y is of the order of um)."""
