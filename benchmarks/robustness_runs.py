@@ -59,7 +59,7 @@ def gauss(what: str, n: int) -> None:
     import fem_pendulum_fmu.physics.material as material
 
     original = material.averaged_pk2_stress
-    material.averaged_pk2_stress = lambda C0, C1, lam, mu, points: original(C0, C1, lam, mu, n)
+    material.averaged_pk2_stress = lambda C0, C1, lame_lambda, mu, points: original(C0, C1, lame_lambda, mu, n)
     from fem_pendulum_fmu.physics.fidelity import create
     from fem_pendulum_fmu.physics.scene import compliant, stiff
 

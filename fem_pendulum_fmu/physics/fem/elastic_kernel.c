@@ -43,7 +43,7 @@ void femp_deformation(int q, const int *indptr, const int *indices, const double
 
 /* out[0:2 nS] += G^T (weights P(F0, F1(u))), the stress term's residual at the end displacement u */
 void femp_stress_residual(int q, const int *indptr, const int *indices, const double *data, int nS,
-                          const double *u, const double *F0, const double *C0, const double *weights, double lam,
+                          const double *u, const double *F0, const double *C0, const double *weights, double lame_lambda,
                           double mu, int n_gauss, const double *gauss_s, const double *gauss_w, double *out) {
     for (int p = 0; p < q; ++p) {
         double g[4];
@@ -51,7 +51,7 @@ void femp_stress_residual(int q, const int *indptr, const int *indices, const do
         double f00 = 1.0 + g[0], f01 = g[1], f10 = g[2], f11 = 1.0 + g[3];
         double c1[3] = {f00 * f00 + f10 * f10, f00 * f01 + f10 * f11, f01 * f01 + f11 * f11};
         const double *c0 = C0 + 3 * p;
-        /* S = mu I + (lam/2 ln det C - mu) C^-1, averaged over the Gauss points of C0 -> C1 */
+        /* S = mu I + (lame_lambda/2 ln det C - mu) C^-1, averaged over the Gauss points of C0 -> C1 */
         double a00 = 0.0, a01 = 0.0, a11 = 0.0;
         for (int i = 0; i < n_gauss; ++i) {
             double s = gauss_s[i];
@@ -59,7 +59,7 @@ void femp_stress_residual(int q, const int *indptr, const int *indices, const do
             double c01 = c0[1] + s * (c1[1] - c0[1]);
             double c11 = c0[2] + s * (c1[2] - c0[2]);
             double det = c00 * c11 - c01 * c01;
-            double scale = gauss_w[i] * (lam * 0.5 * log(det) - mu) / det;
+            double scale = gauss_w[i] * (lame_lambda * 0.5 * log(det) - mu) / det;
             a00 += scale * c11;
             a01 -= scale * c01;
             a11 += scale * c00;
@@ -160,7 +160,7 @@ double femp_min_det(int q, const int *indptr, const int *indices, const double *
 
 /* sum over the Q points of weight psi(C), psi the Neo-Hookean energy of material.py */
 double femp_strain_energy(int q, const int *indptr, const int *indices, const double *data, int nS, const double *u,
-                          const double *weights, double lam, double mu) {
+                          const double *weights, double lame_lambda, double mu) {
     double total = 0.0;
     for (int p = 0; p < q; ++p) {
         double g[4];
@@ -168,7 +168,7 @@ double femp_strain_energy(int q, const int *indptr, const int *indices, const do
         double f00 = 1.0 + g[0], f01 = g[1], f10 = g[2], f11 = 1.0 + g[3];
         double c00 = f00 * f00 + f10 * f10, c01 = f00 * f01 + f10 * f11, c11 = f01 * f01 + f11 * f11;
         double log_j = 0.5 * log(c00 * c11 - c01 * c01);
-        total += weights[p] * (0.5 * mu * (c00 + c11 - 2.0 - 2.0 * log_j) + 0.5 * lam * log_j * log_j);
+        total += weights[p] * (0.5 * mu * (c00 + c11 - 2.0 - 2.0 * log_j) + 0.5 * lame_lambda * log_j * log_j);
     }
     return total;
 }
@@ -222,10 +222,10 @@ double femp_lu_factor(int n, const int *Ap, const int *Ai, const double *Ax, con
  * the same columns in the same order), and the entry of local pair (i, j) is out[slots[start[p] + 2 m i + j]].
  * Consecutive points with the same start (an element's) are summed in a local block first, which is then
  * added to out once.
- * dP/dF1 = 1/2 dF1 S + F_mid dS, dS = sum_g w_g s_g DS(C_g)[dC1], DS(C)[E] = lam/2 tr(C^-1 E) C^-1
- * - (lam/2 ln det C - mu) C^-1 E C^-1 and dC1 = dF1^T F1 + F1^T dF1. */
+ * dP/dF1 = 1/2 dF1 S + F_mid dS, dS = sum_g w_g s_g DS(C_g)[dC1], DS(C)[E] = lame_lambda/2 tr(C^-1 E) C^-1
+ * - (lame_lambda/2 ln det C - mu) C^-1 E C^-1 and dC1 = dF1^T F1 + F1^T dF1. */
 void femp_stress_tangent(int q, const int *indptr, const int *indices, const double *data, int nS, const double *u,
-                         const double *F0, const double *C0, const double *weights, double lam, double mu,
+                         const double *F0, const double *C0, const double *weights, double lame_lambda, double mu,
                          int n_gauss, const double *gauss_s, const double *gauss_w, const int *start,
                          const int *slots, double *out) {
     double block[64 * 64];
@@ -248,7 +248,7 @@ void femp_stress_tangent(int q, const int *indptr, const int *indices, const dou
             double c01 = c0[1] + s * (c1[1] - c0[1]);
             double c11 = c0[2] + s * (c1[2] - c0[2]);
             double det = c00 * c11 - c01 * c01;
-            double beta = lam * 0.5 * log(det) - mu;
+            double beta = lame_lambda * 0.5 * log(det) - mu;
             double ci[2][2] = {{c11 / det, -c01 / det}, {-c01 / det, c00 / det}};
             for (int a = 0; a < 2; ++a)
                 for (int b = 0; b < 2; ++b) s_avg[a][b] += wg * beta * ci[a][b];
@@ -266,7 +266,7 @@ void femp_stress_tangent(int q, const int *indptr, const int *indices, const dou
                         for (int n = 0; n < 2; ++n) ciec[m][n] = cie[m][0] * ci[0][n] + cie[m][1] * ci[1][n];
                     for (int m = 0; m < 2; ++m)
                         for (int n = 0; n < 2; ++n)
-                            ds[k][l][m][n] += wg * s * (0.5 * lam * tr * ci[m][n] - beta * ciec[m][n]);
+                            ds[k][l][m][n] += wg * s * (0.5 * lame_lambda * tr * ci[m][n] - beta * ciec[m][n]);
                 }
         }
         /* a[i][J][k][L] = w dP_iJ / dF1_kL */
@@ -316,7 +316,7 @@ struct femp_body {
     const int *indptr, *indices;
     const double *data;
     const double *F0, *C0, *weights;
-    double lam, mu;
+    double lame_lambda, mu;
     int n_gauss;
     const double *gauss_s, *gauss_w;
 };
@@ -359,7 +359,7 @@ double femp_iterate(const struct femp_iteration *it, int res_holds_contact, int 
     if (it->half_torque != 0.0) csr_axpy(&it->torque, it->half_torque, it->w, res);
     for (int b = 0; b < it->n_bodies; ++b) {
         const struct femp_body *y = &it->bodies[b];
-        femp_stress_residual(y->q, y->indptr, y->indices, y->data, it->nS, it->w, y->F0, y->C0, y->weights, y->lam,
+        femp_stress_residual(y->q, y->indptr, y->indices, y->data, it->nS, it->w, y->F0, y->C0, y->weights, y->lame_lambda,
                              y->mu, y->n_gauss, y->gauss_s, y->gauss_w, res);
     }
     const struct femp_factors *f = &it->lu;

@@ -38,7 +38,7 @@ class _Factors(ctypes.Structure):
 
 
 class _Iteration(ctypes.Structure):
-    """struct femp_iteration of fem/elastic_kernel.c, field for field (the C names Lame's lambda `lam`)."""
+    """struct femp_iteration of fem/elastic_kernel.c, field for field."""
 
     _fields_ = [("size", _I), ("n_disp", _I), ("nS", _I), ("n_bodies", _I), ("bodies", _Body * 2)]
     _fields_ += [("mass", _Csr), ("hinge", _Csr), ("torque", _Csr), ("constant", _P), ("wv", _P)]

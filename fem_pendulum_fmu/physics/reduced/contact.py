@@ -1,4 +1,4 @@
-"""The wall's penalty contact on the head points (the law of contact.py, summed in the deformed
+"""The wall's penalty contact on the head points (the law of fem/contact_law.py, summed in the deformed
 configuration): its energy, gradient, Gauss-Newton Hessian and force, and the impulse a step applies."""
 
 from __future__ import annotations

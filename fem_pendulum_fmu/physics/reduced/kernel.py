@@ -37,7 +37,7 @@ class KernelData(ctypes.Structure):
         ("GT", _P),
         ("qw", _P),
         ("k_mu", _P),
-        ("lam", _D),
+        ("lame_lambda", _D),
         ("mu", _D),
         ("work", _P),
         ("contact_on", _I),
@@ -77,6 +77,9 @@ class ReducedKernel:
         self._lib = lib
         self._arrays: list[np.ndarray] = []
         data = KernelData()
+        unknown = set(fields) - {field[0] for field in KernelData._fields_}
+        if unknown:  # ctypes would keep them as plain attributes, and the C side would read zeros
+            raise TypeError(f"not fields of the reduced kernel's struct: {', '.join(sorted(unknown))}")
         for name, value in fields.items():
             if isinstance(value, np.ndarray):
                 dtype = np.int32 if value.dtype.kind in "iu" else np.float64

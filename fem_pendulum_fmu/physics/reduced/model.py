@@ -16,7 +16,7 @@ Energies, with z = (theta, q) and momenta p = M(q) dz/dt:
   Neo-Hookean energy of the field phi q for soft bodies, its quadratic part
   1/2 sum omega_j^2 q_j^2 for stiff ones (uses_linear_strain);
 * gravity  g (sin theta S_x(q) + cos theta S_y(q)), S the first mass moment;
-* contact  the penalty law of contact.py, summed over points on the head
+* contact  the penalty law of fem/contact_law.py, summed over points on the head
   boundary in the deformed configuration.
 
 Time integration is a discrete gradient scheme for H(z, p): kinetic energy is

@@ -124,11 +124,12 @@ def assemble(scene: Scene) -> tuple[Mesh, FESpace, csr_matrix, csr_matrix, csr_m
 
     mat = scene.pendulum
     h, rho = mat.thickness, mat.rho
-    lam, mu = mat.lame
+    lame_lambda, mu = mat.lame
     mesh, V = fe_space(scene)
     u, v = V.TnT()
     eps_u, eps_v = Sym(Grad(u)), Sym(Grad(v))
-    stiffness = BilinearForm(h * (lam * Trace(eps_u) * Trace(eps_v) + 2.0 * mu * InnerProduct(eps_u, eps_v)) * dx)
+    energy = lame_lambda * Trace(eps_u) * Trace(eps_v) + 2.0 * mu * InnerProduct(eps_u, eps_v)
+    stiffness = BilinearForm(h * energy * dx)
     mass_form = BilinearForm(rho * h * InnerProduct(u, v) * dx)
     K, M = scipy_matrix(stiffness.Assemble().mat), scipy_matrix(mass_form.Assemble().mat)
     C = sp.csr_matrix(np.array([LinearForm(v[i] * ds("hinge")).Assemble().vec.FV().NumPy() for i in range(2)]))

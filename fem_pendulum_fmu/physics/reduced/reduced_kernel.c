@@ -27,7 +27,7 @@ typedef struct {
     const double *GT;   /* (m, nqp, 4): d w_i / d x_j of mode m at each point, i j = 00 01 10 11 */
     const double *qw;   /* (nqp) weights times thickness */
     const double *k_mu; /* (m, m): mu sum_p qw_p GT_p^T GT_p, the constant part of the tangent */
-    double lam, mu;
+    double lame_lambda, mu;
     double *work;       /* (nqp (4 + 10 m)) scratch of the strain terms */
     int contact_on;
     double x_min, x_max, y_min, y_max;
@@ -134,7 +134,7 @@ double femp_reduced_strain_energy(const Reduced *R, const double *q) {
     for (int p = 0; p < R->nqp; ++p) {
         const double *f = F + 4 * p;
         double lj = log(f[0] * f[3] - f[1] * f[2]), ff = f[0] * f[0] + f[1] * f[1] + f[2] * f[2] + f[3] * f[3];
-        e += R->qw[p] * (0.5 * R->mu * (ff - 2.0 - 2.0 * lj) + 0.5 * R->lam * lj * lj);
+        e += R->qw[p] * (0.5 * R->mu * (ff - 2.0 - 2.0 * lj) + 0.5 * R->lame_lambda * lj * lj);
     }
     return e;
 }
@@ -160,16 +160,16 @@ void femp_reduced_strain_gradient(const Reduced *R, const double *q, double *gra
         double inv[4], lj = inverse_and_log(F + 4 * p, inv);
         for (int r = 0; r < 4; ++r) {
             double inv_t = inv[(r % 2) * 2 + r / 2]; /* (F^-T)_ij = (F^-1)_ji */
-            P[4 * p + r] = R->qw[p] * (R->mu * (F[4 * p + r] - inv_t) + R->lam * lj * inv_t);
+            P[4 * p + r] = R->qw[p] * (R->mu * (F[4 * p + r] - inv_t) + R->lame_lambda * lj * inv_t);
         }
     }
     for (int j = 0; j < m; ++j) grad[j] = dot4(4 * R->nqp, P, R->GT + (size_t)j * 4 * R->nqp);
 }
 
 /* The exact tangent sum_p w_p X_j : A_p : X_k over the points, X_j = dF/dq_j and A the Neo-Hookean
- * elasticity tensor mu d_ik d_JL + (mu - lam ln J) Fi_Li Fi_Jk + lam Fi_Ji Fi_Lk (Fi = F^-1). With
- * Y_j = X_j Fi that is mu X_j : X_k (constant: R->k_mu) + (mu - lam ln J) tr(Y_j Y_k)
- * + lam tr(Y_j) tr(Y_k): five products per point and pair, summed as dot products over the points. */
+ * elasticity tensor mu d_ik d_JL + (mu - lame_lambda ln J) Fi_Li Fi_Jk + lame_lambda Fi_Ji Fi_Lk (Fi = F^-1). With
+ * Y_j = X_j Fi that is mu X_j : X_k (constant: R->k_mu) + (mu - lame_lambda ln J) tr(Y_j Y_k)
+ * + lame_lambda tr(Y_j) tr(Y_k): five products per point and pair, summed as dot products over the points. */
 void femp_reduced_strain_hessian(const Reduced *R, const double *q, double *hess) {
     int m = R->m, n5 = 5 * R->nqp;
     if (!R->neo) {
@@ -180,7 +180,7 @@ void femp_reduced_strain_hessian(const Reduced *R, const double *q, double *hess
     double *F = deformations(R, q), *Y = F + 4 * R->nqp, *Z = Y + (size_t)m * n5;
     for (int p = 0; p < R->nqp; ++p) {
         double inv[4], lj = inverse_and_log(F + 4 * p, inv);
-        double wc = R->qw[p] * (R->mu - R->lam * lj), wl = R->qw[p] * R->lam;
+        double wc = R->qw[p] * (R->mu - R->lame_lambda * lj), wl = R->qw[p] * R->lame_lambda;
         for (int j = 0; j < m; ++j) {
             const double *X = R->GT + (size_t)j * 4 * R->nqp + 4 * p;
             double y00 = X[0] * inv[0] + X[1] * inv[2], y01 = X[0] * inv[1] + X[1] * inv[3];

@@ -75,7 +75,7 @@ class NeoHookeanStrain:
             gf.vec.FV().NumPy()[:] = phi[:, j]
             G[..., j] = np.asarray(grad(points)).reshape(-1, 4)
         self._G = G.reshape(-1, phi.shape[1])
-        self._lam, self._mu = scene.pendulum.lame
+        self._lame_lambda, self._mu = scene.pendulum.lame
         self.linear_hessian = np.diag(omega2)  # the tangent at q = 0
         weighted = self._G * np.repeat(self._weights, 4)[:, None]
         # the kernel's read-only fields, built once: this energy's kernel and the model's share them
@@ -87,7 +87,7 @@ class NeoHookeanStrain:
             "GT": np.ascontiguousarray(self._G.T),
             "qw": self._weights,
             "k_mu": self._mu * (weighted.T @ self._G),
-            "lam": self._lam,
+            "lame_lambda": self._lame_lambda,
             "mu": self._mu,
         }
         self._kernel = reduced_kernel(**self.kernel_fields())
@@ -111,7 +111,8 @@ class NeoHookeanStrain:
         F, J = self._kinematics(q)
         with np.errstate(invalid="ignore", divide="ignore"):
             log_j = np.log(J)  # nan for an inverted point: the step fails and is retried smaller
-        density = 0.5 * self._mu * (np.einsum("pij,pij->p", F, F) - 2.0 - 2.0 * log_j) + 0.5 * self._lam * log_j * log_j
+        stretch = np.einsum("pij,pij->p", F, F) - 2.0 - 2.0 * log_j
+        density = 0.5 * self._mu * stretch + 0.5 * self._lame_lambda * log_j * log_j
         return float(self._weights @ density)
 
     @staticmethod
@@ -130,20 +131,20 @@ class NeoHookeanStrain:
         F, J = self._kinematics(q)
         inv, log_j = self._inverse_and_log(F, J)
         inv_t = inv.transpose(0, 2, 1)
-        P = self._mu * (F - inv_t) + (self._lam * log_j)[:, None, None] * inv_t  # first Piola-Kirchhoff
+        P = self._mu * (F - inv_t) + (self._lame_lambda * log_j)[:, None, None] * inv_t  # first Piola-Kirchhoff
         return ((self._weights[:, None, None] * P).reshape(-1)) @ self._G
 
     def hessian(self, q: np.ndarray) -> np.ndarray:
         """Exact tangent: sum_p w_p G_p^T A_p G_p with the Neo-Hookean elasticity tensor
-        A_iJkL = mu d_ik d_JL + (mu - lam ln J) Fi_Li Fi_Jk + lam Fi_Ji Fi_Lk (Fi = F^-1)."""
+        A_iJkL = mu d_ik d_JL + (mu - lame_lambda ln J) Fi_Li Fi_Jk + lame_lambda Fi_Ji Fi_Lk (Fi = F^-1)."""
         if self._kernel is not None:
             return self._kernel.strain_hessian(q)
         F, J = self._kinematics(q)
         inv, log_j = self._inverse_and_log(F, J)
         n = len(J)
-        A = np.einsum("pli,pjk->pijkl", inv, inv).reshape(n, 4, 4) * (self._mu - self._lam * log_j)[
+        A = np.einsum("pli,pjk->pijkl", inv, inv).reshape(n, 4, 4) * (self._mu - self._lame_lambda * log_j)[
             :, None, None
-        ] + self._lam * np.einsum("pji,plk->pijkl", inv, inv).reshape(n, 4, 4)
+        ] + self._lame_lambda * np.einsum("pji,plk->pijkl", inv, inv).reshape(n, 4, 4)
         A += self._mu * np.eye(4)
         G = self._G.reshape(n, 4, -1)
         AG = A @ G
