@@ -117,9 +117,9 @@ def scene_of(case: SceneCase, values: dict | None = None):
 
 
 def available_fidelities() -> tuple[str, ...]:
-    from fem_pendulum_fmu.physics import fidelity as models
+    from fem_pendulum_fmu.physics.fidelity import AVAILABLE
 
-    return tuple(models.AVAILABLE)
+    return tuple(AVAILABLE)
 
 
 def supports(fidelity: str, case: SceneCase) -> bool:

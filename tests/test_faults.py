@@ -20,11 +20,10 @@ from hypothesis import strategies as st
 from isolated import isolated
 from test_fmu import Instance
 
-from fem_pendulum_fmu.physics import fidelity as models
-from fem_pendulum_fmu.physics.fidelity import StepFailed
+from fem_pendulum_fmu.physics.fidelity import AVAILABLE, StepFailed, create
 from fem_pendulum_fmu.physics.scene import stiff
 
-RIGID_WALL = [f for f in ("rigid", "reduced", "fem") if f in models.AVAILABLE]
+RIGID_WALL = [f for f in ("rigid", "reduced", "fem") if f in AVAILABLE]
 COARSE = {"model.mesh_size": 0.06}
 OUTPUTS = ("theta", "omega", "gap", "contact_force", "energy.total", "energy.torque_work", "gap_min")
 
@@ -36,7 +35,7 @@ def test_a_step_over_budget_fails_with_the_state_kept_and_a_retry_is_exact(fidel
     (and the FE model's held Jacobian) stays as before, and the retry in smaller steps gives
     bit-identically what a model that never failed gives."""
     scene = stiff(**{**COARSE, "model.fidelity": fidelity, "theta0": 0.05, "omega0": -1.0, "solver.max_substeps": 30})
-    ref, model = models.create(scene), models.create(scene)
+    ref, model = create(scene), create(scene)
     times = [k * 1e-3 for k in range(1, 81)]
     expected = [ref.advance(t, -0.5).as_dict() for t in times]
     for t in times[:20]:
@@ -181,7 +180,7 @@ def _energy_check(model, schedule, rel_bound, floor):
     omega0=st.floats(min_value=-15.0, max_value=15.0),
 )
 def test_random_torques_and_steps_never_crash_the_rigid_model(schedule, theta0, omega0):
-    model = models.create(stiff(**{"model.fidelity": "rigid", "theta0": theta0, "omega0": omega0}))
+    model = create(stiff(**{"model.fidelity": "rigid", "theta0": theta0, "omega0": omega0}))
     _energy_check(model, schedule, 1e-9, 1e-13)
 
 
@@ -193,5 +192,5 @@ def test_random_torques_and_steps_never_crash_the_rigid_model(schedule, theta0, 
 def test_random_torques_and_steps_never_crash_the_fe_model(schedule, theta0):
     """Released outside the wall: theta0 < 0 starts the head inside the block, and releasing that
     penalty energy (18 kJ at 7.5 mm) is an explosion, not an operating point (docs/robustness.md)."""
-    model = models.create(stiff(**{**COARSE, "theta0": theta0}))
+    model = create(stiff(**{**COARSE, "theta0": theta0}))
     _energy_check(model, schedule, 1e-5, 1e-9)  # floor: the Newton tolerance

@@ -8,7 +8,7 @@ steps per simulated millisecond below the case's bound, and solver.max_substeps
 set so that a stalling doStep would be discarded); two runs bit-identical.
 The bounds and why they are what they are: docs/robustness.md.
 
-Fidelities: those of models.AVAILABLE that model the wall of the case
+Fidelities: those of physics/fidelity.py's AVAILABLE that model the wall of the case
 (the rigid fidelity has no deformable wall and no elements; "reduced" joins
 the rigid-wall cases when it is registered).
 """
@@ -23,10 +23,10 @@ import numpy as np
 import pytest
 from fmu_runner import COMPLIANT, STIFF, col, run_schedule
 
-from fem_pendulum_fmu.physics import fidelity as models
+from fem_pendulum_fmu.physics.fidelity import AVAILABLE, create
 from fem_pendulum_fmu.physics.scene import compliant, stiff
 
-RIGID_WALL = [f for f in ("rigid", "reduced", "fem") if f in models.AVAILABLE]
+RIGID_WALL = [f for f in ("rigid", "reduced", "fem") if f in AVAILABLE]
 COARSE = {"model.mesh_size": 0.06}  # robustness, not accuracy: the coarsest mesh (docs/fem.md mesh study)
 STALL_GUARD = {"solver.max_substeps": 5000}  # a doStep needing more is discarded, and the run fails
 PENETRATION = 2e-3  # m, the robustness bound (docs/robustness.md)
@@ -147,7 +147,7 @@ def phase_bound(t_end: float, max_step: float, theta_amp: float) -> tuple[float,
     """(theta, omega) bounds for two step sequences of the same free flight: twice the midpoint
     rule's phase error over t_end, omega_n t_end (omega_n max_step)^2 / 12 radians of phase, for the
     small-angle pendulum frequency omega_n of the rigid body (the FE proxy follows the same swing)."""
-    rigid = models.create(stiff(**{"model.fidelity": "rigid"}))
+    rigid = create(stiff(**{"model.fidelity": "rigid"}))
     omega_n = math.sqrt(rigid.total_mass * 9.81 * rigid.com_depth / rigid.inertia)
     phase = omega_n * t_end * (omega_n * max_step) ** 2 / 12.0
     return 2.0 * theta_amp * phase, 2.0 * theta_amp * omega_n * phase
@@ -271,7 +271,7 @@ def test_at_rest_touching_the_wall_stays_at_rest(fmus, fidelity, name):
     check_common("at_rest", fidelity, runs, scale=abs(e[0]))
     run = runs[0]
     assert np.max(e - e[0]) <= ENERGY["at_rest"][fidelity] * abs(e[0])  # no energy created
-    rigid = models.create(stiff(**{"model.fidelity": "rigid", **preset(name)}))
+    rigid = create(stiff(**{"model.fidelity": "rigid", **preset(name)}))
     mgd = rigid.total_mass * 9.81 * rigid.com_depth
     swing = math.sqrt(2.0 * col(run, "energy.contact")[0] / mgd)  # 1/2 mgd theta^2 = initial contact energy
     record(
@@ -304,7 +304,7 @@ def test_rubber_torque_pulse_discards_cleanly_when_the_hinge_collapses(fmus):
 def test_rubber_short_pulse_keeps_every_element_upright():
     """A 1 ms pulse of 2 N.m (4.2 J into the 0.14 kg rubber pendulum): det F > 0 at every
     integration point after every step, outputs finite, energy within the rubber bound."""
-    model = models.create(compliant(**{**COARSE, "theta0": 0.0}))
+    model = create(compliant(**{**COARSE, "theta0": 0.0}))
     e0 = model.outputs().total
     worst_det, worst_err, work = math.inf, 0.0, 0.0
     for k in range(1, 21):
