@@ -8,6 +8,7 @@ host environment and the interface table (fmi/).
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from .version import __version__
@@ -84,8 +85,25 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> None:
+    """Run a subcommand. Bad input is one line on stderr and exit 2, a run that stopped early its
+    message and exit 1, Ctrl-C exit 130: never a traceback (masters/failures.py)."""
+    from .masters.failures import IncompleteRun, UsageError
+
     args = parser().parse_args(argv)
-    args.run(args)
+    try:
+        args.run(args)
+    except UsageError as exc:
+        raise SystemExit(_fail(args, f"error: {exc}", 2)) from None
+    except IncompleteRun as exc:
+        raise SystemExit(_fail(args, f"incomplete: {exc}", 1)) from None
+    except KeyboardInterrupt:
+        raise SystemExit(_fail(args, "interrupted (what was written so far is kept)", 130)) from None
+
+
+def _fail(args: argparse.Namespace, message: str, code: int) -> int:
+    """Print `fem-pendulum COMMAND: message` on stderr; the exit code."""
+    print(f"fem-pendulum {args.command}: {message}", file=sys.stderr)
+    return code
 
 
 if __name__ == "__main__":

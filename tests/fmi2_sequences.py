@@ -46,7 +46,9 @@ model as before it):
   instance without a model takes any state of the FMU, and a state with a model fixes the parameters
   (only the same values can be set afterwards) and brings its time. The PID FMU declares
   canGetAndSetFMUstate="false": all six state functions answer fmi2Error there.
-- getBooleanStatus(fmi2Terminated) is fmi2True only in terminated; getRealStatus(fmi2LastSuccessfulTime)
+- getBooleanStatus(fmi2Terminated) is fmi2True only in terminated (the sequences' Discards come from
+  solver.max_substeps, which a shorter step avoids; the Discard no shorter step avoids, where it is
+  fmi2True too, is tests/test_discard_ends_run.py's); getRealStatus(fmi2LastSuccessfulTime)
   is the FMU's time; getStatus(fmi2DoStepStatus), getStringStatus(fmi2PendingStatus) and
   getIntegerStatus answer fmi2Discard; an unknown status kind or a NULL value pointer fmi2Error.
 

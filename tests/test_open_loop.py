@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from fem_pendulum_fmu.masters.failures import UsageError
 from fem_pendulum_fmu.masters.open_loop import parse_start_values
 
 
@@ -31,6 +32,6 @@ def test_enumerations_take_item_names_or_numbers_and_numbers_keep_their_type():
     ],
 )
 def test_bad_items_are_refused_naming_what_is_allowed(item, words):
-    with pytest.raises(SystemExit) as err:
+    with pytest.raises(UsageError) as err:
         parse_start_values([item])
     assert all(w in str(err.value) for w in words)

@@ -50,6 +50,9 @@ class PendulumSlave(CheckedVariableAccess):
         self.model: PendulumModel | None = None
         self.init_error: str | None = None
         self.broken: str | None = None  # set when the model raised something it does not promise
+        # the last doStep was discarded and a shorter one from this state cannot succeed: the binary
+        # answers fmi2Terminated = true, so that a master ends the run (or restores an earlier state)
+        self.cannot_continue = False
         self.initialised = False  # a model is built (at exitInitializationMode, or from a restored state)
         self.stepping = False  # exitInitializationMode succeeded: parameters are fixed from now on
         self.terminated = False
@@ -173,12 +176,20 @@ class PendulumSlave(CheckedVariableAccess):
             self._error(f"doStep refused: {refusal}")
             return False
         route_to(self._handler)  # as routed(), without a generator's cost at every step
+        self.cannot_continue = False
         try:
             self.outputs = model.advance(current_time + step_size, self.torque)
             if self.vtk is not None and self.vtk.due(model.time):
                 self._write_frame()
         except StepFailed as exc:
-            self.log(f"doStep discarded at t = {current_time!r}, state kept: {exc}", Fmi2Status.discard)
+            self.cannot_continue = not exc.shorter_step_helps
+            advice = (
+                "; a shorter communication step cannot help: end the run (fmi2Terminated is true), or restore "
+                "an earlier FMU state or change the input"
+                if self.cannot_continue
+                else ""
+            )
+            self.log(f"doStep discarded at t = {current_time!r}, state kept: {exc}{advice}", Fmi2Status.discard)
             return False
         except ValueError as exc:  # a bad torque or step: the model promises its state is unchanged
             self._error(f"doStep refused: {exc}")
@@ -256,7 +267,7 @@ class PendulumSlave(CheckedVariableAccess):
         if state.model is not None and model is not None:  # model is None only if state.model is
             if self.model is None:
                 self.initialised, self.time = True, model.time
-            self.model, self.outputs, self.broken = model, model.outputs(), None
+            self.model, self.outputs, self.broken, self.cannot_continue = model, model.outputs(), None, False
         if state.model is None and self.model is None:
             self.time = state.time
         self.torque = state.torque

@@ -11,19 +11,53 @@ needs two rows at the same time. Without --torque the torque is zero.
 from __future__ import annotations
 
 import argparse
+import csv
+import math
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from .failures import IncompleteRun, UsageError, check_fmu, check_output_prefix, check_start_values, check_times
 
 DEFAULT_FMU = Path("dist") / "FemPendulum.fmu"
 
 
 def read_torque_csv(path: Path) -> np.ndarray:
-    data = np.genfromtxt(path, delimiter=",", names=True)
-    names = data.dtype.names or ()
-    if "time" not in names or "torque" not in names:
-        raise SystemExit(f"{path}: need the columns time,torque (found {data.dtype.names})")
-    return np.array(list(zip(data["time"], data["torque"], strict=True)), dtype=[("time", float), ("torque", float)])
+    """The torque profile of a CSV with the columns time,torque (others are ignored); UsageError naming
+    the file, the row and the column of a cell that is not a finite number, or times that go back."""
+    try:
+        with open(path, newline="") as f:
+            rows = list(csv.reader(f))
+    except OSError as exc:
+        raise UsageError(f"--torque {str(path)!r}: {exc.strerror or exc}") from None
+    header = [name.strip() for name in rows[0]] if rows else []
+    if "time" not in header or "torque" not in header:
+        raise UsageError(f"--torque {str(path)!r}: need the columns time,torque (found {', '.join(header) or 'none'})")
+    columns = {name: header.index(name) for name in ("time", "torque")}
+    data = []
+    for number, row in enumerate(rows[1:], start=2):
+        if not any(cell.strip() for cell in row):
+            continue  # blank lines
+        data.append(tuple(_cell(path, row, number, name, k) for name, k in columns.items()))
+    if not data:
+        raise UsageError(f"--torque {str(path)!r}: no rows below the header")
+    times = [t for t, _ in data]
+    if any(b < a for a, b in zip(times, times[1:], strict=False)):
+        raise UsageError(f"--torque {str(path)!r}: the times must not decrease (a step is two rows at one time)")
+    return np.array(data, dtype=[("time", float), ("torque", float)])
+
+
+def _cell(path: Path, row: list[str], number: int, name: str, k: int) -> float:
+    """Cell k of CSV row `number` as a finite number, or UsageError naming where it is."""
+    text = row[k].strip() if k < len(row) else ""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise UsageError(f"--torque {str(path)!r}, row {number}, column {name}: {text!r} is not a finite number")
+    return value
 
 
 def parse_start_values(items: list[str]) -> dict[str, float | int | bool | str]:
@@ -36,11 +70,12 @@ def parse_start_values(items: list[str]) -> dict[str, float | int | bool | str]:
     for item in items:
         name, _, text = item.partition("=")
         if not _:
-            raise SystemExit(f"--set {item!r}: expected NAME=VALUE")
+            raise UsageError(f"--set {item!r}: expected NAME=VALUE")
         try:
             var = ifc.by_name(name)
         except KeyError:
-            raise SystemExit(f"--set {item!r}: {name} is not a variable of the FMU (see the README's table)") from None
+            known = "see `fem-pendulum interface`"
+            raise UsageError(f"--set {item!r}: {name} is not a variable of the FMU ({known})") from None
         if var.items and text in var.items:
             values[name] = var.item_number(text)
         elif var.type == "Boolean" and text.lower() in ("true", "false"):
@@ -52,17 +87,36 @@ def parse_start_values(items: list[str]) -> dict[str, float | int | bool | str]:
                 values[name] = float(text) if any(c in text for c in ".eE") else int(text)
             except ValueError:
                 allowed = f"one of {', '.join(var.items)} or their numbers" if var.items else f"a {var.type} number"
-                raise SystemExit(f"--set {item!r}: {text!r} is not allowed for {name}: use {allowed}") from None
+                raise UsageError(f"--set {item!r}: {text!r} is not allowed for {name}: use {allowed}") from None
     return values
+
+
+@dataclass
+class RunResult:
+    """What `run` recorded, and the FMU's Discard and Error messages (fmpy stops at a Discard the FMU
+    cannot recover from; the data then end there)."""
+
+    data: np.ndarray
+    problems: list[str] = field(default_factory=list)
+
+    def end_time(self) -> float:
+        return float(self.data["time"][-1])
 
 
 def run(
     fmu: Path, torque: np.ndarray | None, stop_time: float, step: float, start_values: dict, progress: bool = True
-) -> np.ndarray:
+) -> RunResult:
     from fmpy import read_model_description, simulate_fmu
+    from fmpy.fmi2 import fmi2Discard
 
     variables = read_model_description(str(fmu)).modelVariables
     recorded = [v.name for v in variables if v.causality in ("output", "input")]  # the torque too, for the plot
+    problems: list[str] = []
+
+    def logger(environment: object, instance: object, status: int, category: object, message: bytes) -> None:
+        if status >= fmi2Discard:
+            problems.append(message.decode(errors="replace"))
+
     callback = None
     bar = None
     if progress and stop_time / step > 2000:
@@ -75,7 +129,7 @@ def run(
             return True
 
     try:
-        return simulate_fmu(
+        data = simulate_fmu(
             str(fmu),
             stop_time=stop_time,
             step_size=step,
@@ -84,10 +138,25 @@ def run(
             start_values=start_values,
             input=torque,
             step_finished=callback,
+            logger=logger,
         )
     finally:
         if bar is not None:
             bar.close()
+    return RunResult(data, problems)
+
+
+def incomplete(result: RunResult, stop_time: float, step: float, wrote: str) -> IncompleteRun | None:
+    """The IncompleteRun of a run whose data end before the stop time, saying where, what the FMU
+    said and what to try; None for a complete run."""
+    reached = result.end_time()
+    if reached >= stop_time - 1e-9 * max(1.0, stop_time):
+        return None
+    said = result.problems[-1] if result.problems else "the FMU gave no message"
+    return IncompleteRun(
+        f"the run stopped at t = {reached:.6g} s of {stop_time:g} s: {said}. Wrote {wrote} up to there. "
+        "Try a smaller torque, a stiffer material or a finer mesh (model.mesh_size), or a shorter --step"
+    )
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -110,27 +179,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def command(args: argparse.Namespace) -> None:
+    """Check every argument, run, write the CSV and the plot of what was recorded, and fail with
+    IncompleteRun (after writing) when the FMU stopped before the stop time."""
     from fmpy.util import write_csv
 
     from .plots import impacts, plot_results
 
+    check_times(args.stop_time, args.step)
+    check_fmu(args.fmu)
     torque = read_torque_csv(args.torque) if args.torque else None
     start_values = parse_start_values(args.set)
+    check_start_values(start_values)
+    check_output_prefix(args.out)  # the last check: it makes the output folder
     if args.animate and not start_values.get("output.vtk_folder"):
         start_values["output.vtk_folder"] = str(args.out.parent / f"{args.out.name}_fields")
-    result = run(args.fmu, torque, args.stop_time, args.step, start_values)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    csv = args.out.with_suffix(".csv")
-    write_csv(str(csv), result)
+    run_result = run(args.fmu, torque, args.stop_time, args.step, start_values)
+    result = run_result.data
+    csv_path = args.out.with_suffix(".csv")
+    write_csv(str(csv_path), result)
     png = plot_results(result, args.out.with_suffix(".png"), f"{args.fmu.name}: open loop")
-    err = result["energy.total"] - result["energy.total"][0] - result["energy.torque_work"]
-    names = result.dtype.names or ()
-    force = result["contact_force_max" if "contact_force_max" in names else "contact_force"]
-    gap = result["gap_min" if "gap_min" in names else "gap"]
-    print(
-        f"wrote {csv} and {png}; {impacts(result)} impacts, min gap {gap.min():.3e} m, "
-        f"max contact force {force.max():.1f} N, max |E - E0 - W| {np.abs(err).max():.2e} J"
-    )
+    failure = incomplete(run_result, args.stop_time, args.step, f"{csv_path} and {png}")
+    if failure is not None:
+        raise failure
+    print(summary(result, f"wrote {csv_path} and {png}", impacts(result)))
     if args.animate:
         from ..fmi.vtk_output import INDEX_NAME
         from .animation import animate
@@ -139,6 +210,18 @@ def command(args: argparse.Namespace) -> None:
             Path(str(start_values["output.vtk_folder"])) / INDEX_NAME, args.animate, args.deformation_scale
         )
         print(f"wrote {args.animate}: {frames} frames of the field output in {start_values['output.vtk_folder']}")
+
+
+def summary(result: np.ndarray, wrote: str, impact_count: int) -> str:
+    """The line a complete run prints: what it wrote, impacts, smallest gap, largest force, energy balance."""
+    err = result["energy.total"] - result["energy.total"][0] - result["energy.torque_work"]
+    names = result.dtype.names or ()
+    force = result["contact_force_max" if "contact_force_max" in names else "contact_force"]
+    gap = result["gap_min" if "gap_min" in names else "gap"]
+    return (
+        f"{wrote}; {impact_count} impacts, min gap {gap.min():.3e} m, "
+        f"max contact force {force.max():.1f} N, max |E - E0 - W| {np.abs(err).max():.2e} J"
+    )
 
 
 def main(argv: list[str] | None = None) -> None:

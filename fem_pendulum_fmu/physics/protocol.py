@@ -18,7 +18,15 @@ from .scene import Scene
 
 
 class StepFailed(RuntimeError):
-    """The model could not complete an advance; its state is as it was before the call."""
+    """The model could not complete an advance; its state is as it was before the call.
+
+    `shorter_step_helps`: an advance over a shorter interval from the same state can succeed (the
+    internal steps an advance may take ran out, solver.max_substeps); False when the nonlinear solve
+    failed down to the smallest internal step, where only another input or an earlier state can."""
+
+    def __init__(self, message: str, shorter_step_helps: bool = False):
+        super().__init__(message)
+        self.shorter_step_helps = shorter_step_helps
 
 
 @dataclass

@@ -213,7 +213,8 @@ def check_substeps(control: StepControl, substeps: int, t: float, t_end: float) 
         raise StepFailed(
             f"the advance to t = {t_end:.9g} s needs more than solver.max_substeps = "
             f"{control.max_substeps} internal steps (stopped at t = {t:.9g} s); "
-            "retry with a shorter communication step"
+            "retry with a shorter communication step",
+            shorter_step_helps=True,
         )
 
 

@@ -198,6 +198,7 @@ fmi2Status fmi2Reset(fmi2Component c) {
     inst->state = STATE_INSTANTIATED;
     inst->time = 0.0;
     inst->restored = 0;
+    inst->cannot_continue = 0;
     py.GILStateRelease(gil);
     return status;
 }
@@ -231,6 +232,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet
     if (done < 0) py.ErrClear();
     fmi2Status status = slave_settle(inst, "fmi2DoStep", r, done == 1 ? fmi2OK : fmi2Discard);
     if (status == fmi2OK) inst->time = t + h;
+    inst->cannot_continue = status == fmi2Discard && slave_flag(inst, "cannot_continue");
     return end(&f, status);
 }
 
@@ -437,7 +439,9 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
     Instance *inst = status_call(c, CALL_fmi2GetBooleanStatus, s, value);
     if (inst == NULL) return fmi2Error;
     if (s != fmi2Terminated) return no_such_status(inst, CALL_fmi2GetBooleanStatus, s);
-    *value = inst->state == STATE_TERMINATED ? fmi2True : fmi2False; /* a Discard can be retried */
+    /* true once terminated, and after a Discard that no shorter step can avoid (the step's solve failed
+     * down to the smallest internal step): the master should end the run or restore an earlier state */
+    *value = inst->state == STATE_TERMINATED || inst->cannot_continue ? fmi2True : fmi2False;
     return fmi2OK;
 }
 

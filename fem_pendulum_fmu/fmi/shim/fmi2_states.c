@@ -120,6 +120,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) {
     fmi2Status status = slave_settle(inst, "fmi2SetFMUstate", r, fmi2OK);
     if (status == fmi2OK) {
         take_slave_time(inst, entry->time);
+        inst->cannot_continue = 0;
         if (inst->state == STATE_INSTANTIATED) inst->restored = 1;
     }
     return end(&f, status);

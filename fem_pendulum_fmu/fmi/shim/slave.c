@@ -88,7 +88,8 @@ static void forward_message(Instance *inst, PyObject *message) {
     const char *utf8 = text ? py.UnicodeAsUTF8(text) : NULL;
     py.ErrClear();
     if (level < fmi2OK || level > fmi2Pending) level = fmi2OK;
-    if (utf8 != NULL && category_on(inst, cat))
+    /* a Discard, an Error or a Fatal reaches the host whether or not debug logging is on, as errors do */
+    if (utf8 != NULL && (level >= fmi2Discard || category_on(inst, cat)))
         log_to_host(&inst->callbacks, inst->name, (fmi2Status)level, cat ? cat : "logAll", utf8);
     PyObject *refs[] = {status, category, text};
     for (size_t k = 0; k < 3; k++)
@@ -286,6 +287,14 @@ void take_slave_time(Instance *inst, double fallback) {
         value = fallback;
     }
     inst->time = value;
+}
+
+int slave_flag(Instance *inst, const char *name) {
+    PyObject *v = py.HasAttrString(inst->slave, name) ? py.GetAttrString(inst->slave, name) : NULL;
+    int flag = v ? py.IsTrue(v) : 0;
+    if (v) py.DecRef(v);
+    if (py.ErrOccurred()) py.ErrClear();
+    return flag == 1;
 }
 
 PyObject *references(const fmi2ValueReference vr[], size_t n) {

@@ -19,6 +19,7 @@ typedef struct {
     MachineState state;
     double time;         /* the FMU's time: start time, end of the last successful step, restored state's */
     int restored;        /* an FMU state was set before initialisation: fmi2SetupExperiment keeps its time */
+    int cannot_continue; /* the last doStep was discarded and no shorter one can succeed: fmi2Terminated */
     int logging_on;
     char **categories;
     size_t n_categories;
@@ -52,6 +53,8 @@ int error_pending(void);
 /* With the GIL held: the FMU's time after a call that may set it: the slave's `communication_time`
  * where it has one, else `fallback` (fmi2_functions.c). */
 void take_slave_time(Instance *inst, double fallback);
+/* The slave's attribute `name` as a truth value; 0 when it has none or it cannot be read. */
+int slave_flag(Instance *inst, const char *name);
 
 /* With the GIL held: drop the Python objects of every FMU state the instance still has (fmi2_states.c). */
 void release_all_states(Instance *inst);

@@ -1,0 +1,68 @@
+"""How a command fails: bad input before anything runs (UsageError: one line, exit 2) and a run that
+stopped before its stop time (IncompleteRun: what the FMU said, where, what to try; exit 1).
+cli.py turns both into a message and an exit code, never a traceback; the checks here run before a
+simulation starts, so that a bad value costs seconds, not a run."""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+
+class UsageError(ValueError):
+    """Bad input to a command: the message names the value and what is allowed."""
+
+
+class IncompleteRun(RuntimeError):
+    """A run that ended before its stop time; what it wrote is kept."""
+
+
+def check_times(stop_time: float, step: float) -> None:
+    """UsageError unless the stop time is finite and positive and the step positive and not above it."""
+    if not (math.isfinite(stop_time) and stop_time > 0.0):
+        raise UsageError(f"--stop-time {stop_time!r} is not allowed: give a finite time > 0 (s)")
+    if not (math.isfinite(step) and 0.0 < step <= stop_time):
+        raise UsageError(f"--step {step!r} is not allowed: give a finite step > 0, at most --stop-time {stop_time!r}")
+
+
+def check_fmu(path: Path, option: str = "--fmu") -> Path:
+    """The FMU's path, or UsageError saying how to get one."""
+    if path.is_file():
+        return path
+    hint = " (build it with `fem-pendulum build`, or give its path)" if not path.exists() else ""
+    raise UsageError(f"{option} {str(path)!r} is not an FMU file{hint}")
+
+
+def check_output_prefix(prefix: Path, option: str = "--out") -> None:
+    """UsageError unless files PREFIX.csv and PREFIX.png can be written (the folder is made if missing)."""
+    folder = prefix.parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise UsageError(f"{option} {str(prefix)!r}: cannot write in {str(folder)!r} ({reason})") from None
+    if not os.access(folder, os.W_OK):
+        raise UsageError(f"{option} {str(prefix)!r}: the folder {str(folder)!r} is not writable")
+
+
+def check_start_values(values: Mapping[str, Any]) -> None:
+    """The FMU's own checks of its parameters (fmi/interface.py scene_from_values, physics/scene.py
+    problems), before it is loaded: UsageError listing every bad value."""
+    from ..fmi import interface
+    from ..physics.scene import problems
+
+    ifc = interface.load()
+    parameters = {v.name for v in ifc.of_causality("parameter")}
+    try:
+        scene = interface.scene_from_values({k: v for k, v in values.items() if k in parameters}, ifc)
+    except ValueError as exc:
+        raise UsageError(f"--set: {exc}") from None
+    found = problems(scene)
+    if found:
+        raise UsageError("--set: " + "; ".join(found))

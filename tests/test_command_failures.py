@@ -1,0 +1,73 @@
+"""`fem-pendulum run` with bad input or a run the FMU cannot complete, as a user types it: bad input
+is one line on stderr naming the value and what is allowed, exit 2, within seconds and before any
+simulation; a run that stops early writes what it has, says where, what the FMU said and what to
+try, and exits 1 (masters/failures.py, cli.py). Never a traceback."""
+
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+FAILING = [  # the soft pendulum on a coarse mesh under -20 N.m: the hinge inverts within 0.5 ms
+    "pendulum.E=1e6",
+    "pendulum.nu=0.45",
+    "pendulum.rho=1000",
+    "contact.stiffness=5e9",
+    "model.mesh_size=0.05",
+    "model.order=2",
+]
+TIMEOUT = 120  # s: every case answers in seconds (measured 1-3 s each); a hang would hit this
+
+
+def fem_pendulum(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    command = [str(Path(sys.executable).parent / "fem-pendulum"), *args]
+    return subprocess.run(command, cwd=cwd, capture_output=True, text=True, timeout=TIMEOUT)
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--stop-time", "nan"], ["--stop-time nan", "finite time > 0"]),
+        (["--stop-time", "-1"], ["--stop-time -1.0", "finite time > 0"]),
+        (["--step", "0"], ["--step 0.0", "> 0"]),
+        (["--step", "1", "--stop-time", "0.5"], ["--step 1.0", "at most --stop-time 0.5"]),
+        (["--fmu", "missing.fmu"], ["missing.fmu", "fem-pendulum build"]),
+        (["--torque", "missing.csv"], ["missing.csv", "No such file"]),
+        (["--torque", "bad.csv"], ["bad.csv", "row 3", "column torque", "'abc'"]),
+        (["--set", "pendulum.nu=0.5"], ["pendulum.nu = 0.5", "[0, 0.5)"]),
+        (["--set", "model.mesh_size=1e-5"], ["model.mesh_size = 1e-05", "GiB", "mesh sizes down to"]),
+        (["--set", "no.such=1"], ["no.such", "not a variable"]),
+        (["--out", "file.txt/run"], ["file.txt/run", "cannot write"]),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(fmus, tmp_path, args, words):
+    (tmp_path / "bad.csv").write_text("time,torque\n0.0,0.5\n0.5,abc\n")
+    (tmp_path / "file.txt").write_text("a file, not a folder\n")
+    fmu = [] if "--fmu" in args else ["--fmu", str(fmus[0])]
+    run = fem_pendulum("run", *fmu, "--stop-time", "0.01", *args, cwd=tmp_path)
+    assert run.returncode == 2, run.stdout + run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fem-pendulum run: error: "), run.stderr
+    assert all(word in lines[0] for word in words), lines[0]
+    assert not list(tmp_path.glob("out*")), "nothing is written before the input is checked"
+
+
+def test_a_run_that_stops_early_writes_what_it_has_and_exits_1(fmus, tmp_path):
+    (tmp_path / "torque.csv").write_text("time,torque\n0.0,-20\n1.0,-20\n")
+    sets = [word for item in FAILING for word in ("--set", item)]
+    run = fem_pendulum(
+        "run", "--fmu", str(fmus[0]), "--torque", "torque.csv", "--stop-time", "0.5", *sets, "--out", "o/run",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert run.returncode == 1, run.stdout + run.stderr
+    assert "Traceback" not in run.stderr and "wrote" not in run.stdout
+    message = run.stderr.strip()
+    assert message.startswith("fem-pendulum run: incomplete: the run stopped at t = 0 s of 0.5 s"), message
+    assert "smallest step" in message and "Try a smaller torque" in message, message
+    with open(tmp_path / "o" / "run.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert float(rows[-1]["time"]) < 0.5 and (tmp_path / "o" / "run.png").is_file()
