@@ -58,7 +58,9 @@ def simulate(fmu: str) -> None:
 def loop(fmu: str, pid: str, start_values: str) -> None:
     from fem_pendulum_fmu.masters.controller_loop import run_loop, tracking_error, wall_impacts
 
-    r = run_loop(Path(fmu), Path(pid), stop_time=2.0, step=1e-3, start_values=json.loads(start_values))
+    loop = run_loop(Path(fmu), Path(pid), stop_time=2.0, step=1e-3, start_values=json.loads(start_values))
+    assert loop.stopped is None, loop.stopped
+    r = loop.data
     result = {
         "rms_away": tracking_error(r),
         "impacts": wall_impacts(r).tolist(),

@@ -10,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 FAILING = [  # the soft pendulum on a coarse mesh under -20 N.m: the hinge inverts within 0.5 ms
@@ -71,3 +72,32 @@ def test_a_run_that_stops_early_writes_what_it_has_and_exits_1(fmus, tmp_path):
     with open(tmp_path / "o" / "run.csv") as f:
         rows = list(csv.DictReader(f))
     assert float(rows[-1]["time"]) < 0.5 and (tmp_path / "o" / "run.png").is_file()
+
+
+def test_control_checks_its_arguments_first(fmus, tmp_path):
+    for args, words in (
+        (["--pid", "missing.fmu"], ["--pid 'missing.fmu'", "fem-pendulum build"]),
+        (["--stop-time", "inf"], ["--stop-time inf"]),
+        (["--set", "wall.kind=soft"], ["wall.kind", "'soft'", "rigid, deformable, none"]),
+    ):
+        pid = [] if "--pid" in args else ["--pid", str(fmus[1])]
+        run = fem_pendulum("control", "--fmu", str(fmus[0]), *pid, *args, cwd=tmp_path)
+        assert run.returncode == 2, run.stdout + run.stderr
+        assert run.stderr.startswith("fem-pendulum control: error: ") and run.stderr.count("\n") == 1, run.stderr
+        assert all(word in run.stderr for word in words), run.stderr
+
+
+def test_a_controller_loop_that_stops_early_writes_what_it_has_and_exits_1(fmus, tmp_path):
+    """The soft pendulum on a coarse mesh in the PID loop: its hinge inverts at t = 0.781 s (measured,
+    3.8 s of CPU) after the retry in two half steps; the loop ends there."""
+    sets = [word for item in FAILING for word in ("--set", item)]
+    run = fem_pendulum(
+        "control", "--fmu", str(fmus[0]), "--pid", str(fmus[1]), "--stop-time", "1", *sets, "--out", "c/control",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert run.returncode == 1, run.stdout + run.stderr
+    message = run.stderr.strip()
+    assert message.startswith("fem-pendulum control: incomplete: the pendulum FMU stopped at t = "), message
+    assert "smallest step" in message and "Traceback" not in message, message
+    data = np.loadtxt(tmp_path / "c" / "control.csv", delimiter=",", skiprows=1)
+    assert 0.0 < data[-1, 0] < 1.0

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..physics.swing import rebounds
+from .failures import IncompleteRun, check_fmu, check_output_prefix, check_start_values, check_times
 from .named_slave import NamedSlave
 from .open_loop import parse_start_values
 
@@ -51,8 +52,9 @@ def run_loop(
     step: float = 1e-3,
     start_values: dict | None = None,
     settings: LoopSettings = LoopSettings(),
-) -> np.ndarray:
-    """Co-simulate; returns a structured array with time, setpoint, torque and the pendulum outputs."""
+) -> LoopResult:
+    """Co-simulate; returns a structured array with time, setpoint, torque and the pendulum outputs,
+    up to where the pendulum FMU could not go on if it stopped early."""
     from fmpy.fmi1 import FMICallException
 
     values = {"theta0": 0.0}
@@ -63,6 +65,7 @@ def run_loop(
     )
     n = int(round(stop_time / step))
     rows = []
+    stopped = None
     try:
         t = 0.0
         outputs = pendulum.get(*OUTPUTS)
@@ -78,8 +81,13 @@ def run_loop(
             try:
                 pendulum.fmu.doStep(t, step)
             except FMICallException:  # discarded: the state is unchanged, retry in two halves
-                pendulum.fmu.doStep(t, step / 2)
-                pendulum.fmu.doStep(t + step / 2, step / 2)
+                try:
+                    pendulum.fmu.doStep(t, step / 2)
+                    pendulum.fmu.doStep(t + step / 2, step / 2)
+                except FMICallException:
+                    said = pendulum.problems[-1] if pendulum.problems else "the FMU gave no message"
+                    stopped = f"the pendulum FMU stopped at t = {t:.6g} s of {stop_time:g} s: {said}"
+                    break
             t = (k + 1) * step
             outputs = pendulum.get(*OUTPUTS)
             rows.append((t, sp, torque, *outputs))
@@ -87,7 +95,15 @@ def run_loop(
         pendulum.close()
         controller.close()
     dtype = [("time", float), ("setpoint", float), ("torque", float)] + [(o, float) for o in OUTPUTS]
-    return np.array(rows, dtype=dtype)
+    return LoopResult(np.array(rows, dtype=dtype), stopped)
+
+
+@dataclass
+class LoopResult:
+    """The loop's time series, and why it ended before its stop time (None: it ran to the end)."""
+
+    data: np.ndarray
+    stopped: str | None = None
 
 
 def wall_impacts(result: np.ndarray, band: float = 1e-3) -> np.ndarray:
@@ -141,12 +157,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def command(args: argparse.Namespace) -> None:
-    result = run_loop(args.fmu, args.pid, args.stop_time, args.step, parse_start_values(args.set))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
+    """Check every argument, run the loop, write the CSV and the plot, and fail with IncompleteRun
+    (after writing) when the pendulum FMU stopped before the stop time."""
+    check_times(args.stop_time, args.step)
+    check_fmu(args.fmu)
+    check_fmu(args.pid, "--pid")
+    start_values = parse_start_values(args.set)
+    check_start_values(start_values)
+    check_output_prefix(args.out)  # the last check: it makes the output folder
+    loop = run_loop(args.fmu, args.pid, args.stop_time, args.step, start_values)
+    result = loop.data
     csv = args.out.with_suffix(".csv")
     names = result.dtype.names or ()
     np.savetxt(csv, result.view((float, len(names))), delimiter=",", header=",".join(names), comments="")
     png = plot_loop(result, args.out.with_suffix(".png"))
+    if loop.stopped is not None:
+        raise IncompleteRun(
+            f"{loop.stopped}. Wrote {csv} and {png} up to there. Try a smaller drive limit or a stiffer "
+            "material, a finer mesh (model.mesh_size) or a shorter --step"
+        )
     print(
         f"wrote {csv} and {png}; RMS tracking error away from the wall "
         f"{math.degrees(tracking_error(result)):.2f} deg, {len(wall_impacts(result))} wall impacts, "

@@ -10,7 +10,7 @@ class NamedSlave:
 
     def __init__(self, path: Path, name: str, start_values: dict) -> None:
         from fmpy import extract, read_model_description
-        from fmpy.fmi2 import FMU2Slave
+        from fmpy.fmi2 import FMU2Slave, defaultCallbacks, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 
         self.md = read_model_description(str(path))
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
@@ -22,12 +22,23 @@ class NamedSlave:
             modelIdentifier=self.md.coSimulation.modelIdentifier,
             instanceName=name,
         )
-        self.fmu.instantiate()
+        self.problems: list[str] = []  # the FMU's Discard, Error and Fatal messages, in order
+        self._logger = fmi2CallbackLoggerTYPE(self._log)  # kept: the FMU holds the pointer
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = self._logger
+        callbacks.allocateMemory = defaultCallbacks.allocateMemory
+        callbacks.freeMemory = defaultCallbacks.freeMemory
+        self.fmu.instantiate(callbacks=callbacks)
         self.fmu.setupExperiment(startTime=0.0)
         self.fmu.enterInitializationMode()
         for key, value in start_values.items():
             self.set(key, value)
         self.fmu.exitInitializationMode()
+
+    def _log(self, environment: object, instance: object, status: int, category: object, message: bytes) -> None:
+        """Keep the messages of status Discard (2) and above; print nothing (the master reports them)."""
+        if status >= 2:
+            self.problems.append((message or b"").decode(errors="replace"))
 
     def set(self, name: str, value: float | int | bool) -> None:
         typ = self.types[name]
