@@ -46,9 +46,11 @@ model as before it):
   instance without a model takes any state of the FMU, and a state with a model fixes the parameters
   (only the same values can be set afterwards) and brings its time. The PID FMU declares
   canGetAndSetFMUstate="false": all six state functions answer fmi2Error there.
-- getBooleanStatus(fmi2Terminated) is fmi2True only in terminated (the sequences' Discards come from
-  solver.max_substeps, which a shorter step avoids; the Discard no shorter step avoids, where it is
-  fmi2True too, is tests/test_discard_ends_run.py's); getRealStatus(fmi2LastSuccessfulTime)
+- getBooleanStatus(fmi2Terminated) is fmi2True in terminated, and after the same step (time, size,
+  torque) was discarded twice running (a deterministic model repeats a Discard for ever); the
+  sequences' Discards come from solver.max_substeps, which a shorter step avoids (the Discard no
+  shorter step avoids, where it is fmi2True at once, is tests/test_discard_ends_run.py's);
+  getRealStatus(fmi2LastSuccessfulTime)
   is the FMU's time; getStatus(fmi2DoStepStatus), getStringStatus(fmi2PendingStatus) and
   getIntegerStatus answer fmi2Discard; an unknown status kind or a NULL value pointer fmi2Error.
 
@@ -438,6 +440,8 @@ class Instance:
     dubious: bool = False  # NaN parameters or inputs: the physics' answers are not predicted
     lenient: bool = False  # an outcome the contract leaves open happened: only crashes and fatals count
     after_discard: bool = False
+    discarded: tuple | None = None  # (t, h, torque) of the last doStep, if it was discarded
+    stuck: bool = False  # the same step was discarded twice running: fmi2Terminated is true
 
     def fresh(self) -> None:
         self.state, self.has_model, self.values = INSTANTIATED, False, self.fmu.start_values()
@@ -448,6 +452,7 @@ class Instance:
             False,
             False,
         )
+        self.discarded, self.stuck = None, False
 
     def snapshot(self) -> Snapshot:
         return Snapshot(self.has_model, dict(self.values), self.time, dict(self.outputs), self.dubious)
@@ -928,10 +933,14 @@ class Oracle:
             self.stats["step"] += 1
             if inst.after_discard:
                 self.stats["retry after a discard"] += 1
-            inst.after_discard = False
+            inst.after_discard, inst.discarded, inst.stuck = False, None, False
         elif allowed != REFUSED and status == DISCARD:
+            key = (t, h, inst.values.get("torque"))
+            inst.stuck, inst.discarded = inst.discarded == key, key
             inst.after_discard = True
             self.stats["discard"] += 1
+            if inst.stuck:
+                self.stats["the same step discarded again"] += 1
         return step
 
     # ---------------------------------------------------------------- status functions
@@ -959,8 +968,9 @@ class Oracle:
             elif call.op == "realstatus" and kind == STATUS_KINDS["LastSuccessfulTime"]:
                 allowed, value_check = SUCCESS, inst.time
             elif call.op == "boolstatus" and kind == STATUS_KINDS["Terminated"]:
-                allowed, value_check = SUCCESS, inst.state == TERMINATED
+                allowed, value_check = SUCCESS, inst.state == TERMINATED or inst.stuck
                 why += " (" + ("after a discarded step" if inst.after_discard else "no discarded step") + ")"
+                why += " (the same step discarded twice running)" if inst.stuck else ""
             else:
                 allowed = UNAVAILABLE
         step, status = self._simple(call, send, line, allowed, why, None if ok else inst.state)
@@ -1086,7 +1096,7 @@ class Oracle:
             else:  # a state taken before initialisation: its parameters, inputs and time
                 inst.values, inst.outputs, inst.time = dict(snap.values), {}, snap.time
                 self.stats["restore of a state without a model"] += 1
-            inst.after_discard = False
+            inst.after_discard, inst.discarded, inst.stuck = False, None, False
         return step
 
     def _same_parameters(self, inst: Instance, snap: Snapshot) -> bool:

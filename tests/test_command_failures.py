@@ -101,3 +101,34 @@ def test_a_controller_loop_that_stops_early_writes_what_it_has_and_exits_1(fmus,
     assert "smallest step" in message and "Traceback" not in message, message
     data = np.loadtxt(tmp_path / "c" / "control.csv", delimiter=",", skiprows=1)
     assert 0.0 < data[-1, 0] < 1.0
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--stop-time", "nan"], ["--stop-time nan", "finite time > 0"]),
+        (["--workers", "-1"], ["--workers -1", ">= 1"]),
+        (["--workers", "0"], ["--workers 0", ">= 1"]),
+        (["--param", "pendulum.E=1e6,abc"], ["pendulum.E", "abc"]),
+    ],
+)
+def test_sweep_checks_its_arguments_first(fmus, tmp_path, args, words):
+    run = fem_pendulum("sweep", "--fmu", str(fmus[0]), "--param", "theta0=0.1,0.2", *args, cwd=tmp_path)
+    assert run.returncode == 2, run.stdout + run.stderr
+    assert run.stderr.startswith("fem-pendulum sweep: error: ") and run.stderr.count("\n") == 1, run.stderr
+    assert all(word in run.stderr for word in words), run.stderr
+
+
+def test_a_sweep_with_a_failed_sample_marks_it_and_exits_1(fmus, tmp_path):
+    (tmp_path / "torque.csv").write_text("time,torque\n0.0,-20\n1.0,-20\n")
+    sets = [word for item in FAILING[1:] for word in ("--set", item)]  # pendulum.E is the axis
+    run = fem_pendulum(
+        "sweep", "--fmu", str(fmus[0]), "--param", "pendulum.E=1e6,2.1e11", *sets, "--torque", "torque.csv",
+        "--stop-time", "0.05", "--workers", "1", "--no-progress", "--out", "sweep",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert run.returncode == 1, run.stdout + run.stderr
+    assert "2 samples: 1 ok, 1 error" in run.stdout and "stopped at t = " in run.stdout, run.stdout
+    assert "smallest step" in run.stdout, run.stdout
+    assert run.stderr.strip().splitlines()[-1].startswith("fem-pendulum sweep: incomplete: 1 of 2 samples"), run.stderr
+    assert (tmp_path / "sweep" / "results.parquet").is_file()

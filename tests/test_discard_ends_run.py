@@ -89,3 +89,23 @@ def test_terminated_is_true_after_the_discard_only_until_a_restore_or_reset(fmus
     assert seen["restored"] == [ok, ok, false], seen
     assert seen["again"] == [ok, discard, ok, true], seen
     assert seen["reset"] == [ok, ok, ok, ok, ok, false], seen  # the status is asked for in stepComplete
+
+
+def test_a_step_discarded_twice_running_ends_fmpys_command_line(fmus, tmp_path):
+    """A Discard a shorter step would avoid (more internal steps than solver.max_substeps) leaves
+    fmi2Terminated false, so fmpy repeats the same step; the FMU is deterministic, so the repeat is
+    discarded too, and then fmi2Terminated is true and fmpy's loop ends (measured: 2 s)."""
+    fmpy = Path(sys.executable).parent / "fmpy"
+    values = ["model.fidelity", "2", "solver.max_substeps", "1", "theta0", "0.25"]
+    run = subprocess.run(
+        [str(fmpy), "simulate", str(fmus[0]), "--stop-time", "0.1", "--output-interval", "0.01"]
+        + ["--start-values", *values, "--output-file", "out.csv"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+    )
+    assert run.returncode == 0, run.stderr[-2000:]
+    discards = [line for line in run.stdout.splitlines() if line.startswith("[DISCARD]")]
+    assert len(discards) == 2, run.stdout  # the step, then its one repeat
+    assert "max_substeps" in discards[0] and "the same step was discarded before" in discards[1], discards

@@ -53,6 +53,7 @@ class PendulumSlave(CheckedVariableAccess):
         # the last doStep was discarded and a shorter one from this state cannot succeed: the binary
         # answers fmi2Terminated = true, so that a master ends the run (or restores an earlier state)
         self.cannot_continue = False
+        self._discarded: tuple[float, float, float] | None = None  # (t, h, torque) of the last discarded doStep
         self.initialised = False  # a model is built (at exitInitializationMode, or from a restored state)
         self.stepping = False  # exitInitializationMode succeeded: parameters are fixed from now on
         self.terminated = False
@@ -179,17 +180,11 @@ class PendulumSlave(CheckedVariableAccess):
         self.cannot_continue = False
         try:
             self.outputs = model.advance(current_time + step_size, self.torque)
+            self._discarded = None
             if self.vtk is not None and self.vtk.due(model.time):
                 self._write_frame()
         except StepFailed as exc:
-            self.cannot_continue = not exc.shorter_step_helps
-            advice = (
-                "; a shorter communication step cannot help: end the run (fmi2Terminated is true), or restore "
-                "an earlier FMU state or change the input"
-                if self.cannot_continue
-                else ""
-            )
-            self.log(f"doStep discarded at t = {current_time!r}, state kept: {exc}{advice}", Fmi2Status.discard)
+            self.log(self._discard(current_time, step_size, exc), Fmi2Status.discard)
             return False
         except ValueError as exc:  # a bad torque or step: the model promises its state is unchanged
             self._error(f"doStep refused: {exc}")
@@ -202,6 +197,23 @@ class PendulumSlave(CheckedVariableAccess):
         finally:
             unroute()
         return True
+
+    def _discard(self, t: float, h: float, exc: StepFailed) -> str:
+        """Set `cannot_continue` for a discarded doStep and say why it was discarded: true when no
+        shorter step can help, or when the same step (time, size, torque) was just discarded: the model
+        is deterministic, so a master that repeats it unchanged would repeat the Discard for ever."""
+        step = (t, h, self.torque)
+        repeated, self._discarded = self._discarded == step, step
+        self.cannot_continue = repeated or not exc.shorter_step_helps
+        advice = ""
+        if repeated:
+            advice = "; the same step was discarded before: end the run (fmi2Terminated is true), or take a shorter one"
+        elif self.cannot_continue:
+            advice = (
+                "; a shorter communication step cannot help: end the run (fmi2Terminated is true), or restore "
+                "an earlier FMU state or change the input"
+            )
+        return f"doStep discarded at t = {t!r}, state kept: {exc}{advice}"
 
     def terminate(self) -> None:
         self.terminated = True
@@ -268,6 +280,7 @@ class PendulumSlave(CheckedVariableAccess):
             if self.model is None:
                 self.initialised, self.time = True, model.time
             self.model, self.outputs, self.broken, self.cannot_continue = model, model.outputs(), None, False
+            self._discarded = None
         if state.model is None and self.model is None:
             self.time = state.time
         self.torque = state.torque

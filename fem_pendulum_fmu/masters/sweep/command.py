@@ -14,6 +14,7 @@ import argparse
 import importlib.util
 from pathlib import Path
 
+from ..failures import IncompleteRun, UsageError, check_fmu, check_times
 from ..open_loop import DEFAULT_FMU
 
 EXTRA = ("dask", "distributed", "pandas", "pyarrow")
@@ -36,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--stop-time", type=float, default=2.0)
     parser.add_argument("--step", type=float, default=1e-3, help="communication step = output interval (s)")
     parser.add_argument("--outputs", default="", metavar="NAME,...", help="outputs kept in the series (default all)")
-    parser.add_argument("--workers", type=int, help="local cluster of N worker processes (default: the cores)")
+    parser.add_argument("--workers", type=int, help="local cluster of N >= 1 worker processes (default: one per core)")
     parser.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786")
     parser.add_argument("--out", type=Path, default=Path("out") / "sweep", help="output folder (resumed if it exists)")
     parser.add_argument("--csv", action="store_true", help="also write results.csv")
@@ -50,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _need_extra() -> None:
     missing = [name for name in EXTRA if importlib.util.find_spec(name) is None]
     if missing:
-        raise SystemExit(f"fem-pendulum sweep needs {', '.join(missing)}: pip install 'fem_pendulum_fmu[sweep]'")
+        raise UsageError(f"fem-pendulum sweep needs {', '.join(missing)}: pip install 'fem_pendulum_fmu[sweep]'")
 
 
 def _axes(items: list[str], option: str) -> list:
@@ -64,7 +65,7 @@ def _axes(items: list[str], option: str) -> list:
         except ValueError as exc:
             problems.append(f"{option} {item}: {exc}")
     if problems:
-        raise SystemExit("\n".join(problems))
+        raise UsageError("; ".join(problems))
     return axes
 
 
@@ -73,9 +74,9 @@ def _samples(args: argparse.Namespace) -> list:
 
     fixed = dict(_axes(args.set, "--set"))
     if any(len(values) != 1 for values in fixed.values()):
-        raise SystemExit("--set takes one value: NAME=VALUE (a list is a grid axis: --param)")
+        raise UsageError("--set takes one value: NAME=VALUE (a list is a grid axis: --param)")
     if args.table and args.param:
-        raise SystemExit("give the samples as --param axes or as a --table, not both")
+        raise UsageError("give the samples as --param axes or as a --table, not both")
     rows = samples.read_table(args.table) if args.table else samples.grid(_axes(args.param, "--param"))
     rows = [{**row, **{name: values[0] for name, values in fixed.items()}} for row in rows]
     return samples.samples(rows, args.torque)
@@ -87,11 +88,17 @@ def command(args: argparse.Namespace) -> None:
     from .plot import FIGURES, summary_plot
 
     if args.plot not in FIGURES:
-        raise SystemExit(f"--plot {args.plot!r}: choose one of {', '.join(FIGURES)}")
+        raise UsageError(f"--plot {args.plot!r}: choose one of {', '.join(FIGURES)}")
+    check_times(args.stop_time, args.step)
+    check_fmu(args.fmu)
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers {args.workers}: give a number of worker processes >= 1 (or leave it out)")
     try:
         chosen = _samples(args)
+    except UsageError:
+        raise
     except ValueError as exc:
-        raise SystemExit(str(exc)) from None
+        raise UsageError(str(exc)) from None
     settings = SweepSettings(
         fmu=args.fmu,
         out=args.out,
@@ -107,7 +114,7 @@ def command(args: argparse.Namespace) -> None:
     try:
         table = run_sweep(chosen, settings)
     except ValueError as exc:  # a folder that holds a sweep with other settings
-        raise SystemExit(str(exc)) from None
+        raise UsageError(str(exc)) from None
     ok = int((table["status"] == "ok").sum())
     print(
         f"{len(table)} samples: {ok} ok, {len(table) - ok} error; wrote {args.out / 'results.parquet'} and "
@@ -119,7 +126,12 @@ def command(args: argparse.Namespace) -> None:
         y = args.y or (swept[1] if len(swept) > 1 and not args.x else None)
         absent = [name for name in (x, y) if name is not None and name not in table.columns]
         if absent:
-            raise SystemExit(f"--x/--y {', '.join(absent)}: not a parameter of this sweep (the table is written)")
+            raise UsageError(f"--x/--y {', '.join(absent)}: not a parameter of this sweep (the table is written)")
         print(summary_plot(table, args.plot, x, y, args.out / "summary.png"))
     for row in table[table["status"] != "ok"].head(10).itertuples():
         print(f"  {row.sample_id}: {row.message}")
+    if ok < len(table):
+        raise IncompleteRun(
+            f"{len(table) - ok} of {len(table)} samples ended in error (their messages above and in "
+            f"{args.out / 'results.parquet'}); run again with --retry-failed after changing what they name"
+        )
