@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..physics.swing import rebounds
-from .failures import IncompleteRun, check_fmu, check_output_prefix, check_start_values, check_times
+from .failures import IncompleteRun, check_fmu, check_output_prefix, check_start_values, check_times, fidelity_choice
 from .named_slave import NamedSlave
 from .open_loop import parse_start_values
 
@@ -163,8 +163,10 @@ def command(args: argparse.Namespace) -> None:
     check_fmu(args.fmu)
     check_fmu(args.pid, "--pid")
     start_values = parse_start_values(args.set)
-    check_start_values(start_values)
+    choice = fidelity_choice(check_start_values({"theta0": 0.0, **start_values}))
     check_output_prefix(args.out)  # the last check: it makes the output folder
+    if choice is not None:
+        print(choice)
     loop = run_loop(args.fmu, args.pid, args.stop_time, args.step, start_values)
     result = loop.data
     csv = args.out.with_suffix(".csv")

@@ -10,7 +10,10 @@ import os
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ..physics.scene import Scene
 
 
 class UsageError(ValueError):
@@ -51,9 +54,9 @@ def check_output_prefix(prefix: Path, option: str = "--out") -> None:
         raise UsageError(f"{option} {str(prefix)!r}: the folder {str(folder)!r} is not writable")
 
 
-def check_start_values(values: Mapping[str, Any]) -> None:
+def check_start_values(values: Mapping[str, Any]) -> Scene:
     """The FMU's own checks of its parameters (fmi/interface.py scene_from_values, physics/scene.py
-    problems), before it is loaded: UsageError listing every bad value."""
+    problems), before it is loaded: UsageError listing every bad value; the scene they describe."""
     from ..fmi import interface
     from ..physics.scene import problems
 
@@ -66,3 +69,15 @@ def check_start_values(values: Mapping[str, Any]) -> None:
     found = problems(scene)
     if found:
         raise UsageError("--set: " + "; ".join(found))
+    return scene
+
+
+def fidelity_choice(scene: Scene) -> str | None:
+    """What model.fidelity = auto picks for `scene` and why (physics/fidelity_rule.py), as a line to
+    print before a run; None when the scene names its fidelity."""
+    if scene.model.fidelity != "auto":
+        return None
+    from ..physics.fidelity_rule import choose
+
+    choice = choose(scene)
+    return f"model.fidelity = auto picks {choice.fidelity}: {choice.reason}"

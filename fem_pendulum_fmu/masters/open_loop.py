@@ -18,7 +18,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .failures import IncompleteRun, UsageError, check_fmu, check_output_prefix, check_start_values, check_times
+from .failures import (
+    IncompleteRun,
+    UsageError,
+    check_fmu,
+    check_output_prefix,
+    check_start_values,
+    check_times,
+    fidelity_choice,
+)
+from .run_progress import RunProgress
 
 DEFAULT_FMU = Path("dist") / "FemPendulum.fmu"
 
@@ -117,17 +126,7 @@ def run(
         if status >= fmi2Discard:
             problems.append(message.decode(errors="replace"))
 
-    callback = None
-    bar = None
-    if progress and stop_time / step > 2000:
-        from tqdm import tqdm
-
-        bar = tqdm(total=round(stop_time / step), unit="step", desc="simulating")
-
-        def callback(time: float, recorder: object) -> bool:
-            bar.update(1)
-            return True
-
+    bar = RunProgress(round(stop_time / step), enabled=progress)
     try:
         data = simulate_fmu(
             str(fmu),
@@ -137,12 +136,11 @@ def run(
             output=recorded,
             start_values=start_values,
             input=torque,
-            step_finished=callback,
+            step_finished=lambda time, recorder: bar.step(),
             logger=logger,
         )
     finally:
-        if bar is not None:
-            bar.close()
+        bar.close()
     return RunResult(data, problems)
 
 
@@ -189,8 +187,10 @@ def command(args: argparse.Namespace) -> None:
     check_fmu(args.fmu)
     torque = read_torque_csv(args.torque) if args.torque else None
     start_values = parse_start_values(args.set)
-    check_start_values(start_values)
+    choice = fidelity_choice(check_start_values(start_values))
     check_output_prefix(args.out)  # the last check: it makes the output folder
+    if choice is not None:
+        print(choice)
     if args.animate and not start_values.get("output.vtk_folder"):
         start_values["output.vtk_folder"] = str(args.out.parent / f"{args.out.name}_fields")
     run_result = run(args.fmu, torque, args.stop_time, args.step, start_values)
