@@ -103,8 +103,19 @@ def test_without_a_python_instantiate_fails_with_what_to_set(fmus, host):
     fmu, _ = fmus
     run = run_host(host, fmu, 10, RIGID, env={"FEM_PENDULUM_LIBPYTHON": "/nonexistent/libpython3.so"})
     assert run.returncode == 3, run.stderr  # fmi2Instantiate returned NULL: refused, no crash
-    assert "cannot load /nonexistent/libpython3.so" in run.stderr
-    assert "FEM_PENDULUM_LIBPYTHON" in run.stderr and "fem-pendulum host-env" in run.stderr
+    assert "the environment variable FEM_PENDULUM_LIBPYTHON = /nonexistent/libpython3.so cannot be loaded" in run.stderr
+    assert "fem-pendulum host-env" in run.stderr
+
+
+def test_a_wrong_python_executable_is_named_as_such(fmus, host):
+    """FEM_PENDULUM_PYTHON pointing at no executable is named as the culprit (it used to surface as
+    Python starting without the environment's packages: "ngsolve is not installed")."""
+    fmu, _ = fmus
+    env = {**host_environment(), "FEM_PENDULUM_PYTHON": "/nonexistent/bin/python"}
+    run = run_host(host, fmu, 10, RIGID, env=env)
+    assert run.returncode == 3, run.stderr
+    assert "FEM_PENDULUM_PYTHON = /nonexistent/bin/python is not an executable file" in run.stderr, run.stderr
+    assert "not installed" not in run.stderr
 
 
 def test_host_env_names_this_environment():

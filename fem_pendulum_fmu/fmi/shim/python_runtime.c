@@ -20,10 +20,12 @@
 #include "python_api.h" /* Python.h first, as it asks */
 
 #include <dlfcn.h>
+#include <errno.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "python_runtime.h"
 
@@ -96,18 +98,21 @@ static void recorded(const char *resources, const char *key, char *value, size_t
     fclose(f);
 }
 
-static void setting(const char *variable, const char *resources, const char *key, char *value, size_t n) {
+/* The value of a setting: the environment variable when set (returns 1), else what the FMU records (0). */
+static int setting(const char *variable, const char *resources, const char *key, char *value, size_t n) {
     const char *env = getenv(variable);
-    if (env != NULL && env[0] != '\0')
+    if (env != NULL && env[0] != '\0') {
         snprintf(value, n, "%s", env);
-    else
-        recorded(resources, key, value, n);
+        return 1;
+    }
+    recorded(resources, key, value, n);
+    return 0;
 }
 
 static int load_libpython(const char *resources, char *why, size_t n) {
     if (dlsym(RTLD_DEFAULT, "Py_IsInitialized") != NULL) return 1; /* the host has one (or preloaded it) */
     char lib[4096];
-    setting("FEM_PENDULUM_LIBPYTHON", resources, "libpython", lib, sizeof lib);
+    int from_env = setting("FEM_PENDULUM_LIBPYTHON", resources, "libpython", lib, sizeof lib);
     if (lib[0] == '\0') {
         snprintf(why, n, "this host has no Python and the FMU records none: set FEM_PENDULUM_LIBPYTHON to the "
                  "libpython%d.%d shared library and FEM_PENDULUM_PYTHON to the python executable of an environment "
@@ -115,10 +120,18 @@ static int load_libpython(const char *resources, char *why, size_t n) {
         return 0;
     }
     if (dlopen(lib, RTLD_NOW | RTLD_GLOBAL) == NULL) {
-        snprintf(why, n, "this host has no Python and the FMU cannot load %s (%s): set FEM_PENDULUM_LIBPYTHON to "
-                 "the libpython%d.%d shared library and FEM_PENDULUM_PYTHON to the python executable of an "
-                 "environment with the FMU's requirements (resources/requirements.txt); `fem-pendulum host-env` "
-                 "prints both for the environment it runs in", lib, dlerror(), PY_MAJOR_VERSION, PY_MINOR_VERSION);
+        const char *error = dlerror();
+        if (from_env)
+            snprintf(why, n, "the environment variable FEM_PENDULUM_LIBPYTHON = %s cannot be loaded (%s): set it to "
+                     "the libpython%d.%d shared library of an environment with the FMU's requirements, or unset it "
+                     "to use the one the FMU records; `fem-pendulum host-env` prints it for the environment it runs "
+                     "in", lib, error, PY_MAJOR_VERSION, PY_MINOR_VERSION);
+        else
+            snprintf(why, n, "this host has no Python and the FMU cannot load %s (%s): set FEM_PENDULUM_LIBPYTHON "
+                     "to the libpython%d.%d shared library and FEM_PENDULUM_PYTHON to the python executable of an "
+                     "environment with the FMU's requirements (resources/requirements.txt); `fem-pendulum "
+                     "host-env` prints both for the environment it runs in", lib, error, PY_MAJOR_VERSION,
+                     PY_MINOR_VERSION);
         return 0;
     }
     return 1;
@@ -138,7 +151,14 @@ static int start_python(const char *resources, char *why, size_t n) {
     py.ConfigInitPythonConfig(&config);
     config.install_signal_handlers = 0; /* the host owns its signals */
     config.parse_argv = 0;
-    setting("FEM_PENDULUM_PYTHON", resources, "executable", executable, sizeof executable);
+    if (setting("FEM_PENDULUM_PYTHON", resources, "executable", executable, sizeof executable) &&
+        access(executable, X_OK) != 0) {
+        snprintf(why, n, "the environment variable FEM_PENDULUM_PYTHON = %s is not an executable file (%s): set it "
+                 "to the python executable of an environment with the FMU's requirements, or unset it to use the "
+                 "one the FMU records", executable, strerror(errno));
+        py.ConfigClear(&config);
+        return 0;
+    }
     PyStatus status = {0};
     if (executable[0] != '\0') status = py.ConfigSetBytesString(&config, &config.program_name, executable);
     if (!py.StatusException(status)) status = py.InitializeFromConfig(&config);
