@@ -15,6 +15,7 @@ import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -102,29 +103,39 @@ def parse_start_values(items: list[str]) -> dict[str, float | int | bool | str]:
 
 @dataclass
 class RunResult:
-    """What `run` recorded, and the FMU's Discard and Error messages (fmpy stops at a Discard the FMU
-    cannot recover from; the data then end there)."""
+    """What `run` recorded (None if nothing), the FMU's Discard and Error messages, and why the run
+    ended early: fmpy stops at a Discard the FMU cannot recover from (the data then end there) and
+    raises at an fmi2Error (`error`); `interrupted` by Ctrl-C."""
 
-    data: np.ndarray
+    data: np.ndarray | None
     problems: list[str] = field(default_factory=list)
+    error: str | None = None
+    interrupted: bool = False
 
     def end_time(self) -> float:
-        return float(self.data["time"][-1])
+        return float(self.data["time"][-1]) if self.data is not None and len(self.data) else 0.0
 
 
 def run(
     fmu: Path, torque: np.ndarray | None, stop_time: float, step: float, start_values: dict, progress: bool = True
 ) -> RunResult:
     from fmpy import read_model_description, simulate_fmu
+    from fmpy.fmi1 import FMICallException
     from fmpy.fmi2 import fmi2Discard
 
     variables = read_model_description(str(fmu)).modelVariables
     recorded = [v.name for v in variables if v.causality in ("output", "input")]  # the torque too, for the plot
     problems: list[str] = []
+    recorders: list[Any] = []  # fmpy's recorder, for what it holds when the run ends in an exception
 
     def logger(environment: object, instance: object, status: int, category: object, message: bytes) -> None:
         if status >= fmi2Discard:
             problems.append(message.decode(errors="replace"))
+
+    def finished(time: float, recorder: Any) -> bool:
+        if not recorders:
+            recorders.append(recorder)
+        return bar.step()
 
     bar = RunProgress(round(stop_time / step), enabled=progress)
     try:
@@ -136,23 +147,29 @@ def run(
             output=recorded,
             start_values=start_values,
             input=torque,
-            step_finished=lambda time, recorder: bar.step(),
+            step_finished=finished,
             logger=logger,
         )
+    except FMICallException as exc:  # an fmi2Error: Ctrl-C inside the FMU's Python arrives as one
+        said = "; ".join(problems) or str(exc)
+        kept = recorders[0].result() if recorders else None
+        return RunResult(kept, problems, said, interrupted="KeyboardInterrupt" in said)
+    except KeyboardInterrupt:
+        return RunResult(recorders[0].result() if recorders else None, problems, interrupted=True)
     finally:
         bar.close()
     return RunResult(data, problems)
 
 
-def incomplete(result: RunResult, stop_time: float, step: float, wrote: str) -> IncompleteRun | None:
-    """The IncompleteRun of a run whose data end before the stop time, saying where, what the FMU
-    said and what to try; None for a complete run."""
+def incomplete(result: RunResult, stop_time: float, wrote: str) -> IncompleteRun | None:
+    """The IncompleteRun of a run that ended in an error or whose data end before the stop time,
+    saying where, what the FMU said and what to try; None for a complete run."""
     reached = result.end_time()
-    if reached >= stop_time - 1e-9 * max(1.0, stop_time):
+    if result.error is None and reached >= stop_time - 1e-9 * max(1.0, stop_time):
         return None
-    said = result.problems[-1] if result.problems else "the FMU gave no message"
+    said = result.error or (result.problems[-1] if result.problems else "the FMU gave no message")
     return IncompleteRun(
-        f"the run stopped at t = {reached:.6g} s of {stop_time:g} s: {said}. Wrote {wrote} up to there. "
+        f"the run stopped at t = {reached:.6g} s of {stop_time:g} s: {said}. {wrote}. "
         "Try a smaller torque, a stiffer material or a finer mesh (model.mesh_size), or a shorter --step"
     )
 
@@ -195,12 +212,18 @@ def command(args: argparse.Namespace) -> None:
         start_values["output.vtk_folder"] = str(args.out.parent / f"{args.out.name}_fields")
     run_result = run(args.fmu, torque, args.stop_time, args.step, start_values)
     result = run_result.data
-    csv_path = args.out.with_suffix(".csv")
-    write_csv(str(csv_path), result)
-    png = plot_results(result, args.out.with_suffix(".png"), f"{args.fmu.name}: open loop")
-    failure = incomplete(run_result, args.stop_time, args.step, f"{csv_path} and {png}")
+    csv_path, png = args.out.with_suffix(".csv"), args.out.with_suffix(".png")
+    wrote = "Nothing was recorded"
+    if result is not None and len(result) > 0:
+        write_csv(str(csv_path), result)
+        plot_results(result, png, f"{args.fmu.name}: open loop")
+        wrote = f"Wrote {csv_path} and {png} up to there"
+    if run_result.interrupted:
+        raise KeyboardInterrupt
+    failure = incomplete(run_result, args.stop_time, wrote)
     if failure is not None:
         raise failure
+    assert result is not None
     print(summary(result, f"wrote {csv_path} and {png}", impacts(result)))
     if args.animate:
         from ..fmi.vtk_output import INDEX_NAME
