@@ -173,6 +173,8 @@ def command(args: argparse.Namespace) -> None:
     names = result.dtype.names or ()
     np.savetxt(csv, result.view((float, len(names))), delimiter=",", header=",".join(names), comments="")
     png = plot_loop(result, args.out.with_suffix(".png"))
+    if loop.stopped is not None and "KeyboardInterrupt" in loop.stopped:  # Ctrl-C inside the FMU's Python
+        raise KeyboardInterrupt
     if loop.stopped is not None:
         raise IncompleteRun(
             f"{loop.stopped}. Wrote {csv} and {png} up to there. Try a smaller drive limit or a stiffer "
