@@ -35,6 +35,15 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-controller", action="store_true", help="do not build PidController.fmu")
 
 
+class DefaultsHelp(argparse.ArgumentDefaultsHelpFormatter):
+    """Help that shows an option's default where it has one worth showing (not None, [] or False)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        if action.default in (None, [], False, argparse.SUPPRESS) or "default" in (action.help or ""):
+            return action.help
+        return super()._get_help_string(action)
+
+
 def parser() -> argparse.ArgumentParser:
     from .fmi import host_env, interface
     from .masters import controller_loop, open_loop, sweep
@@ -78,7 +87,7 @@ def parser() -> argparse.ArgumentParser:
         ),
     )
     for name, help_text, add_arguments, run in verbs:
-        verb = sub.add_parser(name, help=help_text, description=help_text)
+        verb = sub.add_parser(name, help=help_text, description=help_text, formatter_class=DefaultsHelp)
         add_arguments(verb)
         verb.set_defaults(run=run)
     return top

@@ -148,12 +148,22 @@ def plot_loop(result: np.ndarray, path: Path) -> Path:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--fmu", type=Path, default=Path("dist") / "FemPendulum.fmu")
-    parser.add_argument("--pid", type=Path, default=Path("dist") / "PidController.fmu")
-    parser.add_argument("--stop-time", type=float, default=2.0)
-    parser.add_argument("--step", type=float, default=1e-3)
-    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
-    parser.add_argument("--out", type=Path, default=Path("out") / "control")
+    parser.add_argument(
+        "--fmu", type=Path, default=Path("dist") / "FemPendulum.fmu", help="the pendulum FMU `fem-pendulum build` wrote"
+    )
+    parser.add_argument(
+        "--pid", type=Path, default=Path("dist") / "PidController.fmu", help="the PID controller FMU it wrote beside it"
+    )
+    parser.add_argument("--stop-time", type=float, default=2.0, help="simulated time (s)")
+    parser.add_argument("--step", type=float, default=1e-3, help="communication step of both FMUs (s)")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="start value of a pendulum parameter (repeatable; `fem-pendulum interface` lists them)",
+    )
+    parser.add_argument("--out", type=Path, default=Path("out") / "control", help="prefix of the CSV and PNG written")
 
 
 def command(args: argparse.Namespace) -> None:

@@ -175,11 +175,17 @@ def incomplete(result: RunResult, stop_time: float, wrote: str) -> IncompleteRun
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--fmu", type=Path, default=DEFAULT_FMU)
-    parser.add_argument("--torque", type=Path, help="CSV with columns time,torque")
-    parser.add_argument("--stop-time", type=float, default=2.0)
+    parser.add_argument("--fmu", type=Path, default=DEFAULT_FMU, help="the FMU `fem-pendulum build` wrote")
+    parser.add_argument("--torque", type=Path, help="CSV with columns time,torque (N.m); without it the torque is 0")
+    parser.add_argument("--stop-time", type=float, default=2.0, help="simulated time (s)")
     parser.add_argument("--step", type=float, default=1e-3, help="communication step (s)")
-    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="start value of a parameter")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="start value of a parameter (repeatable; `fem-pendulum interface` lists them)",
+    )
     parser.add_argument("--out", type=Path, default=Path("out") / "run", help="prefix of the CSV and PNG written")
     parser.add_argument(
         "--animate",

@@ -21,7 +21,7 @@ EXTRA = ("dask", "distributed", "pandas", "pyarrow")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--fmu", type=Path, default=DEFAULT_FMU)
+    parser.add_argument("--fmu", type=Path, default=DEFAULT_FMU, help="the FMU `fem-pendulum build` wrote")
     parser.add_argument(
         "--param",
         action="append",
@@ -34,7 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--table", type=Path, help="CSV, one row a sample, columns parameter names (and torque)")
     parser.add_argument("--torque", type=Path, help="CSV time,torque for every sample (a table's torque column wins)")
-    parser.add_argument("--stop-time", type=float, default=2.0)
+    parser.add_argument("--stop-time", type=float, default=2.0, help="simulated time of every sample (s)")
     parser.add_argument("--step", type=float, default=1e-3, help="communication step = output interval (s)")
     parser.add_argument("--outputs", default="", metavar="NAME,...", help="outputs kept in the series (default all)")
     parser.add_argument("--workers", type=int, help="local cluster of N >= 1 worker processes (default: one per core)")
@@ -45,7 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plot", default="largest_penetration", metavar="FIGURE", help="figure of the summary plot")
     parser.add_argument("--x", help="parameter on the plot's x axis (default: the first --param)")
     parser.add_argument("--y", help="a second parameter, shown as the y axis (figure as colour)")
-    parser.add_argument("--no-progress", action="store_true")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
 def _need_extra() -> None:
