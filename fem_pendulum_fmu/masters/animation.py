@@ -1,8 +1,9 @@
 """An animation of the deforming pendulum made from the FMU's own field output (output.vtk_folder).
 
 Each frame of the ParaView series (a .pvd index of .vtu files, fmi/vtk_output.py) is drawn as the
-deformed triangles coloured by the nodal von Mises stress, with the wall and the time and angle in
-the corner. Steel deforms by micrometres, so `deformation_scale` magnifies the elastic part of the
+deformed triangles coloured by the nodal von Mises stress, with the wall and the pivot; the title
+says the time, the angle, the magnification and how much slower than real time the animation runs
+(`pace`). Steel deforms by micrometres, so `deformation_scale` magnifies the elastic part of the
 displacement: the points are drawn at R(theta) X + scale (x - R(theta) X), theta the frame's
 best-fit rotation about the pivot, so the swing itself is never exaggerated. GIF through Pillow;
 MP4 when the path ends in .mp4 and ffmpeg is present.
@@ -64,7 +65,23 @@ def drawn_points(points: np.ndarray, displacement: np.ndarray, theta: float, sca
     return rigid + scale * (points + displacement - rigid)
 
 
-def _draw_frame(ax: Any, frame: Frame, scale: float, vmax: float, block: WallBlock | None) -> Any:
+def pace(times: list[float], fps: float) -> str:
+    """How the animation's time compares with the simulated time: each frame is shown for 1/fps s of real
+    time and stands for the median interval between the frames' times ("" for fewer than two frames)."""
+    if len(times) < 2:
+        return ""
+    simulated = float(np.median(np.diff(times)))
+    factor = (1.0 / fps) / simulated
+    if math.isclose(factor, 1.0, rel_tol=0.01):
+        return "real time"
+    if factor > 1.0:
+        return f"{factor:.3g}x slower than real time"
+    return f"{1.0 / factor:.3g}x faster than real time"
+
+
+def _draw_frame(ax: Any, frame: Frame, scale: float, vmax: float, block: WallBlock | None, speed: str) -> Any:
+    """One frame; the time, angle, magnification and pace go in the title, above the view, so that they
+    hide nothing (the pivot at the top of the view least of all)."""
     ax.clear()
     if block is not None:
         ax.add_patch(_wall_patch(block))
@@ -74,13 +91,12 @@ def _draw_frame(ax: Any, frame: Frame, scale: float, vmax: float, block: WallBlo
         xy = drawn_points(points, disp, theta, scale)
         image = ax.tripcolor(xy[:, 0], xy[:, 1], cells, vm, shading="gouraud", cmap="viridis", vmin=0.0, vmax=vmax)
     theta = best_fit_rotation(*frame.bodies[0][:3])
-    label = f"t = {frame.time:.3f} s\ntheta = {math.degrees(theta):.2f} deg"
-    if scale != 1.0:
-        label += f"\ndeformation x {scale:g}"
-    ax.text(0.02, 0.98, label, transform=ax.transAxes, va="top", family="monospace")
-    ax.plot([0.0], [0.0], "k^", ms=8)  # the pivot
+    first = f"t = {frame.time:.3f} s, theta = {math.degrees(theta):.2f} deg"
+    second = ", ".join(text for text in (f"deformation x {scale:g}" if scale != 1.0 else "", speed) if text)
+    ax.set_title(f"{first}\n{second}" if second else first, fontsize="medium")
+    ax.plot([0.0], [0.0], "k^", ms=8, zorder=5, label="pivot")
     ax.set_xlim(-0.2, 0.2)
-    ax.set_ylim(-0.37, 0.03)
+    ax.set_ylim(-0.37, 0.04)
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -95,9 +111,26 @@ def _wall_patch(block: WallBlock) -> Any:
     )
 
 
+def animation_figure(frames: list[Frame], deformation_scale: float = 1.0, fps: float = 20) -> tuple[Any, Any]:
+    """The animation's figure, showing the first frame, and the function that draws frame i into it."""
+    plt = _pyplot()
+    vmax = max(float(np.max(vm)) for f in frames for (*_, vm) in f.bodies) or 1.0
+    block = WallBlock() if len(frames[0].bodies) == 1 else None
+    speed = pace([f.time for f in frames], fps)
+    fig, ax = plt.subplots(figsize=(5.2, 4.6))
+
+    def draw(i: int) -> Any:
+        return _draw_frame(ax, frames[i], deformation_scale, vmax, block, speed)
+
+    fig.colorbar(draw(0), ax=ax, label="von Mises stress (Pa)")
+    fig.tight_layout()
+    return fig, draw
+
+
 def animate(pvd: Path, out: Path, deformation_scale: float = 1.0, fps: int = 20) -> int:
     """Write the animation of a series to `out` (.gif, or .mp4 with ffmpeg); returns the number of frames,
-    one per frame of the series, shown at `fps` (20: slow motion at the default 0.01 s interval).
+    one per frame of the series, shown at `fps` (20: 5x slower than real time at the default 0.01 s
+    interval; each frame says so, `pace`).
 
     The rigid wall is drawn as its block (scene.WallBlock); a deformable wall is a body of the series."""
     from matplotlib import animation
@@ -105,16 +138,8 @@ def animate(pvd: Path, out: Path, deformation_scale: float = 1.0, fps: int = 20)
     frames = read_series(pvd)
     if not frames:
         raise ValueError(f"{pvd}: the series has no frames")
-    plt = _pyplot()
-    vmax = max(float(np.max(vm)) for f in frames for (*_, vm) in f.bodies) or 1.0
-    block = WallBlock() if len(frames[0].bodies) == 1 else None
-    fig, ax = plt.subplots(figsize=(5.2, 4.4))
-    image = _draw_frame(ax, frames[0], deformation_scale, vmax, block)
-    fig.colorbar(image, ax=ax, label="von Mises stress (Pa)")
-    fig.tight_layout()
-    anim = animation.FuncAnimation(
-        fig, lambda i: _draw_frame(ax, frames[i], deformation_scale, vmax, block), frames=len(frames)
-    )
+    fig, draw = animation_figure(frames, deformation_scale, fps)
+    anim = animation.FuncAnimation(fig, draw, frames=len(frames))
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     if out.suffix.lower() == ".mp4":
@@ -122,5 +147,5 @@ def animate(pvd: Path, out: Path, deformation_scale: float = 1.0, fps: int = 20)
     else:
         writer = animation.PillowWriter(fps=fps)
     anim.save(str(out), writer=writer, dpi=80)
-    plt.close(fig)
+    _pyplot().close(fig)
     return len(frames)

@@ -15,6 +15,7 @@ import argparse
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -42,7 +43,17 @@ def drive(demand: float, limit: float) -> float:
     return max(-limit, min(limit, demand))
 
 
-OUTPUTS = ("theta", "omega", "gap", "contact_force", "energy.total", "energy.torque_work")
+# what happened within each doStep (an impact lasts ~0.3 ms and falls between 1 ms samples), for the plot
+STEP_SUMMARIES = ("gap_min", "contact_force_max", "contact_impulse")
+OUTPUTS = ("theta", "omega", "gap", "contact_force", "energy.total", "energy.torque_work", *STEP_SUMMARIES)
+
+
+def both_halves(first: list[float], outputs: list[float]) -> list[float]:
+    """The outputs after a step taken in two halves, its STEP_SUMMARIES (at the end of `outputs`) made
+    those of the whole step: the smaller gap_min, the larger force, the sum of the impulses."""
+    n = len(OUTPUTS) - len(STEP_SUMMARIES)
+    (gap0, force0, impulse0), (gap1, force1, impulse1) = first, outputs[n:]
+    return [*outputs[:n], min(gap0, gap1), max(force0, force1), impulse0 + impulse1]
 
 
 def run_loop(
@@ -70,6 +81,7 @@ def run_loop(
         t = 0.0
         outputs = pendulum.get(*OUTPUTS)
         torque = 0.0
+        first: list[float] | None = None  # the STEP_SUMMARIES of the first half of a step retried in two halves
         rows.append((t, settings.setpoint(t), torque, *outputs))
         for k in range(n):
             sp = settings.setpoint(t)
@@ -83,6 +95,7 @@ def run_loop(
             except FMICallException:  # discarded: the state is unchanged, retry in two halves
                 try:
                     pendulum.fmu.doStep(t, step / 2)
+                    first = pendulum.get(*STEP_SUMMARIES)
                     pendulum.fmu.doStep(t + step / 2, step / 2)
                 except FMICallException:
                     said = pendulum.problems[-1] if pendulum.problems else "the FMU gave no message"
@@ -90,6 +103,8 @@ def run_loop(
                     break
             t = (k + 1) * step
             outputs = pendulum.get(*OUTPUTS)
+            if first is not None:
+                outputs, first = both_halves(first, outputs), None
             rows.append((t, sp, torque, *outputs))
     finally:
         pendulum.close()
@@ -118,33 +133,37 @@ def tracking_error(result: np.ndarray) -> float:
     return float(np.sqrt(np.mean((result["setpoint"][away] - result["theta"][away]) ** 2)))
 
 
-def plot_loop(result: np.ndarray, path: Path) -> Path:
-    from .plots import _pyplot
+def loop_figure(result: np.ndarray) -> Any:
+    """The loop's figure: set-point and angle, torque, gap with gap_min and the rebounds, contact force
+    with contact_force_max and contact_impulse per step (every impact, however short: masters/plots.py)."""
+    from .plots import _pyplot, impacts, plot_contact_force, plot_contact_impulse, plot_gap
 
     plt = _pyplot()
     t = result["time"]
-    fig, ax = plt.subplots(4, 1, figsize=(9, 10), sharex=True)
+    fig, ax = plt.subplots(5, 1, figsize=(9, 12), sharex=True)
     ax[0].plot(t, np.degrees(result["setpoint"]), "--", label="set-point")
     ax[0].plot(t, np.degrees(result["theta"]), label="theta")
     ax[0].set_ylabel("angle (deg)")
     ax[0].legend(loc="upper right")
     ax[1].plot(t, result["torque"])
     ax[1].set_ylabel("torque (N.m)")
-    ax[2].plot(t, result["gap"] * 1e3)
-    ax[2].axhline(0.0, color="k", lw=0.5)
-    impacts = wall_impacts(result)
-    ax[2].plot(impacts, np.zeros_like(impacts), "rv", ms=5, label="rebound from the wall")
-    ax[2].legend(loc="upper right")
-    ax[2].set_ylabel("gap (mm)")
-    ax[3].plot(t, result["contact_force"])
-    ax[3].set_ylabel("contact force (N)\nat the samples")
-    ax[3].set_xlabel("time (s)")
-    fig.suptitle("PID controller in the loop with the FE pendulum")
+    plot_gap(ax[2], result)
+    rebound = wall_impacts(result)
+    ax[2].plot(rebound, np.zeros_like(rebound), "k^", ms=5, label=f"rebound from the wall ({len(rebound)})")
+    ax[2].legend(loc="upper right", fontsize="small")
+    plot_contact_force(ax[3], result)
+    plot_contact_impulse(ax[4], result)
+    ax[4].set_xlabel("time (s)")
+    fig.suptitle(f"PID controller in the loop with the FE pendulum ({impacts(result)} impacts)")
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return fig
+
+
+def plot_loop(result: np.ndarray, path: Path) -> Path:
+    """Write loop_figure to the PNG `path`."""
+    from .plots import save_figure
+
+    return save_figure(loop_figure(result), path)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -2,9 +2,10 @@
 
 Contact and rebounds are read as everywhere else in the package
 (physics.swing): a stiff impact lasts about 0.3 ms and falls between 1 ms
-samples, so the figures use gap_min (the smallest gap at the internal steps
-of a doStep) for contact and the turn of omega near the wall for a rebound,
-not the sampled contact force alone. Energy errors are measured against the
+samples, so the figures use what the FMU outputs of each doStep: gap_min
+(the smallest gap at its internal steps) for contact and contact_force_max
+(the largest force at them) for the force, and the turn of omega near the
+wall for a rebound; never the sampled gap or contact force alone. Energy errors are measured against the
 swing energy m g d (1 - cos theta0) (physics.mass_properties).
 """
 
@@ -20,7 +21,7 @@ from ...physics.mass_properties import swing_energy
 from ...physics.scene import Scene
 
 # what the figures read; a sweep records these whatever outputs the user keeps
-NEEDED = ("theta", "omega", "gap", "gap_min", "contact_force", "energy.total", "energy.torque_work")
+NEEDED = ("theta", "omega", "gap", "gap_min", "contact_force_max", "energy.total", "energy.torque_work")
 
 
 @dataclass(frozen=True)
@@ -30,7 +31,7 @@ class Figures:
     first_contact_time: end of the first communication step in which the head touched the wall (gap_min < 0), s.
     largest_penetration: -min(gap_min) when the head touched the wall, else 0 (m).
     first_rebound_peak: theta at its first local maximum after the first rebound (rad).
-    max_contact_force: largest sampled contact_force (N); an impact between samples is missed (see above).
+    max_contact_force: largest contact_force_max, the largest force within any doStep (N).
     energy_error: max |E(t) - E(0) - W(t)| over the swing energy, E the total energy and W the torque's work.
     rebounds: how many rebounds (swing.rebounds with its defaults).
     """
@@ -41,6 +42,17 @@ class Figures:
     max_contact_force: float = math.nan
     energy_error: float = math.nan
     rebounds: float = math.nan  # a count; float so that a failed sample's NaN fits the column
+
+
+# the unit of each figure (the definitions above), for the axes of the summary plot
+UNITS = {
+    "first_contact_time": "s",
+    "largest_penetration": "m",
+    "first_rebound_peak": "rad",
+    "max_contact_force": "N",
+    "energy_error": "fraction of the swing energy",
+    "rebounds": "count",
+}
 
 
 def _first_rebound_peak(series: np.ndarray) -> tuple[float, int]:
@@ -68,7 +80,7 @@ def summarise(series: np.ndarray, scene: Scene) -> Figures:
         first_contact_time=float(series["time"][touching[0]]) if len(touching) else math.nan,
         largest_penetration=max(0.0, -float(np.min(series["gap_min"]))),
         first_rebound_peak=peak,
-        max_contact_force=float(np.max(series["contact_force"])),
+        max_contact_force=float(np.max(series["contact_force_max"])),
         energy_error=float(np.max(np.abs(drift))) / scale if scale > 0 else math.nan,
         rebounds=float(count),
     )

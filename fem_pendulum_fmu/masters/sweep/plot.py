@@ -5,13 +5,28 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from .figures import Figures
+from ...fmi import interface
+from .figures import UNITS, Figures
 
 FIGURES = (*(f.name for f in dataclasses.fields(Figures)), "wall_time")  # what --plot may show
+FIGURE_UNITS = {**UNITS, "wall_time": "s"}
+
+
+def label(name: str) -> str:
+    """A figure or a parameter with its unit: `max_contact_force (N)`, `pendulum.E (Pa)`; an enumeration
+    or a parameter without a unit as it is."""
+    if name in FIGURE_UNITS:
+        return f"{name} ({FIGURE_UNITS[name]})"
+    try:
+        unit = interface.load().by_name(name).unit
+    except KeyError:
+        unit = None
+    return f"{name} ({unit})" if unit else name
 
 
 def _numeric(column: pd.Series) -> tuple[np.ndarray, list[str] | None]:
@@ -23,14 +38,20 @@ def _numeric(column: pd.Series) -> tuple[np.ndarray, list[str] | None]:
 
 
 def summary_plot(table: pd.DataFrame, figure: str, x: str, y: str | None, path: Path) -> Path:
-    """`figure` against parameter `x` (a curve), or against `x` and `y` (colour); failed samples as red crosses.
+    """Write summary_figure to the PNG `path`."""
+    from ..plots import save_figure
+
+    return save_figure(summary_figure(table, figure, x, y), path)
+
+
+def summary_figure(table: pd.DataFrame, figure: str, x: str, y: str | None) -> Any:
+    """`figure` against parameter `x` (a curve), or against `x` and `y` (colour); failed samples as red crosses;
+    every axis with its unit (`label`).
 
     A logarithmic axis is used for a parameter whose values span more than two decades (moduli, stiffnesses)."""
-    import matplotlib
+    from ..plots import _pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     ok = table["status"] == "ok"
     xs, xlabels = _numeric(table[x])
     fig, ax = plt.subplots(figsize=(7, 4.5))
@@ -38,23 +59,21 @@ def summary_plot(table: pd.DataFrame, figure: str, x: str, y: str | None, path: 
         order = np.argsort(xs[ok.to_numpy()], kind="stable")
         ax.plot(xs[ok.to_numpy()][order], table.loc[ok, figure].to_numpy(float)[order], "o-")
         ax.plot(xs[~ok.to_numpy()], np.zeros((~ok).sum()), "rx", label="failed")
-        ax.set_ylabel(figure)
+        ax.set_ylabel(label(figure))
     else:
         ys, ylabels = _numeric(table[y])
         dots = ax.scatter(xs[ok.to_numpy()], ys[ok.to_numpy()], c=table.loc[ok, figure].to_numpy(float), s=80)
-        fig.colorbar(dots, ax=ax, label=figure)
+        fig.colorbar(dots, ax=ax, label=label(figure))
         ax.plot(xs[~ok.to_numpy()], ys[~ok.to_numpy()], "rx", label="failed")
         _axis(ax.set_yscale, ax.set_yticks, ys[ok.to_numpy()], ylabels)
-        ax.set_ylabel(y)
+        ax.set_ylabel(label(y))
     _axis(ax.set_xscale, ax.set_xticks, xs[ok.to_numpy()], xlabels)
-    ax.set_xlabel(x)
+    ax.set_xlabel(label(x))
     ax.set_title(f"{figure}: {ok.sum()} ok, {(~ok).sum()} failed")
     if (~ok).any():
         ax.legend()
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return fig
 
 
 def _axis(
