@@ -23,6 +23,7 @@ from ..physics.swing import rebounds
 from .failures import IncompleteRun, check_fmu, check_output_prefix, check_start_values, check_times, fidelity_choice
 from .named_slave import NamedSlave
 from .open_loop import parse_start_values
+from .run_progress import RunProgress
 
 
 @dataclass(frozen=True)
@@ -77,6 +78,7 @@ def run_loop(
     n = int(round(stop_time / step))
     rows = []
     stopped = None
+    bar = RunProgress(n)
     try:
         t = 0.0
         outputs = pendulum.get(*OUTPUTS)
@@ -106,7 +108,9 @@ def run_loop(
             if first is not None:
                 outputs, first = both_halves(first, outputs), None
             rows.append((t, sp, torque, *outputs))
+            bar.step()
     finally:
+        bar.close()
         pendulum.close()
         controller.close()
     dtype = [("time", float), ("setpoint", float), ("torque", float)] + [(o, float) for o in OUTPUTS]

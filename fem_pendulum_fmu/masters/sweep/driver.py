@@ -42,7 +42,7 @@ class SweepSettings:
     """What every sample of a sweep shares, and where and how it runs.
 
     outputs: the outputs kept in the time series (() = every output of the FMU); the summary figures read
-        theta, omega, gap, gap_min, contact_force and the energies whatever is kept.
+        theta, omega, gap, gap_min, contact_force_max and the energies whatever is kept.
     workers: processes of a local cluster (None = the machine's cores); ignored with `scheduler`.
     scheduler: address of a running Dask scheduler (tcp://host:8786) to use instead of a local cluster.
     retry_failed: run again the samples the folder holds with status error.
