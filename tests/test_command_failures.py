@@ -165,3 +165,13 @@ def test_ctrl_c_ends_a_run_with_what_it_has_and_no_traceback(fmus, tmp_path):
     with open(tmp_path / "o" / "run.csv") as f:
         rows = list(csv.DictReader(f))
     assert 0.0 < float(rows[-1]["time"]) < 60.0
+
+
+def test_sweep_says_what_auto_picked(fmus, tmp_path):
+    run = fem_pendulum(
+        "sweep", "--fmu", str(fmus[0]), "--param", "theta0=0.2,0.3", "--set", "model.fidelity=auto",
+        "--stop-time", "0.02", "--workers", "1", "--no-progress", "--out", "sweep",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert run.stdout.startswith("model.fidelity = auto picks reduced for 2 sample(s) ("), run.stdout

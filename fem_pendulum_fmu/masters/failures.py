@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from ..physics.fidelity_rule import Choice
     from ..physics.scene import Scene
 
 
@@ -72,12 +73,17 @@ def check_start_values(values: Mapping[str, Any]) -> Scene:
     return scene
 
 
-def fidelity_choice(scene: Scene) -> str | None:
-    """What model.fidelity = auto picks for `scene` and why (physics/fidelity_rule.py), as a line to
-    print before a run; None when the scene names its fidelity."""
+def auto_choice(scene: Scene) -> Choice | None:
+    """What model.fidelity = auto picks for `scene` and why (physics/fidelity_rule.py); None when
+    the scene names its fidelity."""
     if scene.model.fidelity != "auto":
         return None
     from ..physics.fidelity_rule import choose
 
-    choice = choose(scene)
-    return f"model.fidelity = auto picks {choice.fidelity}: {choice.reason}"
+    return choose(scene)
+
+
+def fidelity_choice(scene: Scene) -> str | None:
+    """`auto_choice` as a line to print before a run."""
+    choice = auto_choice(scene)
+    return None if choice is None else f"model.fidelity = auto picks {choice.fidelity}: {choice.reason}"

@@ -82,6 +82,23 @@ def _samples(args: argparse.Namespace) -> list:
     return samples.samples(rows, args.torque)
 
 
+def _auto_choices(chosen: list) -> list[str]:
+    """What model.fidelity = auto picks for the samples that ask for it, as lines to print: each pick,
+    how many samples, and why for the first of them (masters/failures.py auto_choice)."""
+    from ...fmi.interface import scene_from_values
+    from ..failures import auto_choice
+
+    picks: dict[str, list[str]] = {}
+    for sample in chosen:
+        choice = auto_choice(scene_from_values(sample.values)) if "model.fidelity" in sample.values else None
+        if choice is not None:
+            picks.setdefault(choice.fidelity, []).append(f"{sample.sample_id}: {choice.reason}")
+    return [
+        f"model.fidelity = auto picks {picked} for {len(whys)} sample(s) ({whys[0]}{'; ...' if len(whys) > 1 else ''})"
+        for picked, whys in picks.items()
+    ]
+
+
 def command(args: argparse.Namespace) -> None:
     _need_extra()
     from .driver import SweepSettings, run_sweep
@@ -99,6 +116,8 @@ def command(args: argparse.Namespace) -> None:
         raise
     except ValueError as exc:
         raise UsageError(str(exc)) from None
+    for line in _auto_choices(chosen):
+        print(line)
     settings = SweepSettings(
         fmu=args.fmu,
         out=args.out,
