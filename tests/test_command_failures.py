@@ -110,9 +110,12 @@ def test_a_controller_loop_that_stops_early_writes_what_it_has_and_exits_1(fmus,
         (["--workers", "-1"], ["--workers -1", ">= 1"]),
         (["--workers", "0"], ["--workers 0", ">= 1"]),
         (["--param", "pendulum.E=1e6,abc"], ["pendulum.E", "abc"]),
+        (["--out", "file.txt"], ["--out 'file.txt' is a file"]),
+        (["--out", "file.txt/sweep"], ["file.txt/sweep", "cannot write"]),
     ],
 )
 def test_sweep_checks_its_arguments_first(fmus, tmp_path, args, words):
+    (tmp_path / "file.txt").write_text("a file, not a folder\n")
     run = fem_pendulum("sweep", "--fmu", str(fmus[0]), "--param", "theta0=0.1,0.2", *args, cwd=tmp_path)
     assert run.returncode == 2, run.stdout + run.stderr
     assert run.stderr.startswith("fem-pendulum sweep: error: ") and run.stderr.count("\n") == 1, run.stderr

@@ -14,7 +14,7 @@ import argparse
 import importlib.util
 from pathlib import Path
 
-from ..failures import IncompleteRun, UsageError, check_fmu, check_times
+from ..failures import IncompleteRun, UsageError, check_fmu, check_output_prefix, check_times
 from ..open_loop import DEFAULT_FMU
 
 EXTRA = ("dask", "distributed", "pandas", "pyarrow")
@@ -110,12 +110,15 @@ def command(args: argparse.Namespace) -> None:
     check_fmu(args.fmu)
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers {args.workers}: give a number of worker processes >= 1 (or leave it out)")
+    if args.out.exists() and not args.out.is_dir():
+        raise UsageError(f"--out {str(args.out)!r} is a file: give a folder (made if missing)")
     try:
         chosen = _samples(args)
     except UsageError:
         raise
     except ValueError as exc:
         raise UsageError(str(exc)) from None
+    check_output_prefix(args.out / "results", "--out")  # the last check: it makes the output folder
     for line in _auto_choices(chosen):
         print(line)
     settings = SweepSettings(
