@@ -28,6 +28,7 @@ from .failures import (
     check_times,
     fidelity_choice,
 )
+from .realtime import Pacer
 from .run_progress import RunProgress
 
 DEFAULT_FMU = Path("dist") / "FemPendulum.fmu"
@@ -117,8 +118,16 @@ class RunResult:
 
 
 def run(
-    fmu: Path, torque: np.ndarray | None, stop_time: float, step: float, start_values: dict, progress: bool = True
+    fmu: Path,
+    torque: np.ndarray | None,
+    stop_time: float,
+    step: float,
+    start_values: dict,
+    progress: bool = True,
+    pacer: Pacer | None = None,
 ) -> RunResult:
+    """simulate_fmu of `fmu`, recording every output and input, with the FMU's problems kept; paced
+    to the wall clock by `pacer` if given."""
     from fmpy import read_model_description, simulate_fmu
     from fmpy.fmi1 import FMICallException
     from fmpy.fmi2 import fmi2Discard
@@ -135,6 +144,8 @@ def run(
     def finished(time: float, recorder: Any) -> bool:
         if not recorders:
             recorders.append(recorder)
+        if pacer is not None:
+            pacer.step_done(time)
         return bar.step()
 
     bar = RunProgress(round(stop_time / step), enabled=progress)
@@ -195,6 +206,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "output.vtk_folder (default: the --out prefix + '_fields')",
     )
     parser.add_argument(
+        "--realtime",
+        action="store_true",
+        help="pace the doSteps to the wall clock, as a real-time rig does, and report the steps that overran",
+    )
+    parser.add_argument(
         "--deformation-scale", type=float, default=1.0, help="magnify the elastic deformation in the animation"
     )
 
@@ -216,7 +232,8 @@ def command(args: argparse.Namespace) -> None:
         print(choice)
     if args.animate and not start_values.get("output.vtk_folder"):
         start_values["output.vtk_folder"] = str(args.out.parent / f"{args.out.name}_fields")
-    run_result = run(args.fmu, torque, args.stop_time, args.step, start_values)
+    pacer = Pacer() if args.realtime else None
+    run_result = run(args.fmu, torque, args.stop_time, args.step, start_values, pacer=pacer)
     result = run_result.data
     csv_path, png = args.out.with_suffix(".csv"), args.out.with_suffix(".png")
     wrote = "Nothing was recorded"
@@ -231,6 +248,8 @@ def command(args: argparse.Namespace) -> None:
         raise failure
     assert result is not None
     print(summary(result, f"wrote {csv_path} and {png}", impacts(result)))
+    if pacer is not None:
+        print(pacer.report())
     if args.animate:
         from ..fmi.vtk_output import INDEX_NAME
         from .animation import animate
