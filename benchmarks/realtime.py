@@ -11,6 +11,7 @@ only (instantiation and initialisation are timed apart). Runs (--runs picks):
   fem_rubber     the rubber preset (E 1 MPa, nu 0.45, rho 1000, k 5e9, order 3), 2 s
   fem_wall       steel against the seed's meshed (deformable) wall block, 0.5 s
   reduced_steel, reduced_rubber, rigid_steel   the other fidelities, 2 s
+  fem_mesh_0.01, fem_mesh_0.005   fem steel on finer meshes (model.mesh_size), 0.5 s
   floor          benchmarks/rigid_floor.py's trivial Python FMU with the same variables, 2 s
 
 Printed per run: CPU seconds (time.process_time of the run's process) and wall
@@ -19,13 +20,17 @@ ratio to the seed baseline timed in this session (../shared/baseline/
 seed_pendulum.py, --seed-steps 1 ms steps, when that file is there), and the
 accuracy: max |theta - theta_ref| before the reference's second impact against
 benchmarks/references (the L2 runs of benchmarks/speed_vs_error.py) and the
-energy error max |E_total - E_0 - W_torque| over the swing energy. Run it on a
-quiet machine: the load average is printed before and after.
+energy error max |E_total - E_0 - W_torque| over the swing energy. A second
+table gives the latency of each doStep alone (perf_counter around the call):
+median, 99th and 99.9th percentile, maximum and when, the tail over the median
+(what a real-time rig waits for), and the share of doSteps over 1 ms. Run it on
+a quiet machine: the load average is printed before and after.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import statistics
@@ -55,6 +60,8 @@ RUNS = {
     "reduced_steel": ("reduced", {}, {}, 2.0, "steel"),
     "reduced_rubber": ("reduced", RUBBER, ORDER3, 2.0, "rubber"),
     "rigid_steel": ("rigid", {}, {}, 2.0, "steel"),
+    "fem_mesh_0.01": ("fem", {"model.mesh_size": 0.01}, {}, 0.5, None),
+    "fem_mesh_0.005": ("fem", {"model.mesh_size": 0.005}, {}, 0.5, None),
 }
 
 
@@ -91,17 +98,65 @@ def child(fmu: str, spec: dict) -> dict:
     rows = np.empty((n + 1, len(out_vrs)))
     rows[0] = slave.getReal(out_vrs)
     torque = [vr["torque"]]
-    c0, w0 = time.process_time(), time.perf_counter()
+    latency = np.empty(n)  # wall time of each doStep alone (s)
+    clock = time.perf_counter
+    c0, w0 = time.process_time(), clock()
     for k in range(n):
         slave.setReal(torque, [0.0])
+        s0 = clock()
         slave.doStep(k * 1e-3, 1e-3)
+        latency[k] = clock() - s0
         rows[k + 1] = slave.getReal(out_vrs)
-    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    cpu, wall = time.process_time() - c0, clock() - w0
     slave.terminate()
     slave.freeInstance()
     kept = ("theta", "energy.total", "energy.torque_work")
     series = {name: rows[:, i].tolist() for i, name in enumerate(names) if name in kept}
-    return {"cpu": cpu / spec["t_end"], "wall": wall / spec["t_end"], "startup": startup, "series": series}
+    return {
+        "cpu": cpu / spec["t_end"],
+        "wall": wall / spec["t_end"],
+        "startup": startup,
+        "series": series,
+        "latency": latency_figures(latency),
+    }
+
+
+def latency_figures(latency: np.ndarray) -> dict[str, float]:
+    """The doStep latency distribution: median, 99th and 99.9th percentile and maximum (s), the time
+    of the slowest (s) and the share of doSteps over 1 ms, the communication step."""
+    return {
+        "median": float(np.median(latency)),
+        "p99": float(np.percentile(latency, 99.0)),
+        "p999": float(np.percentile(latency, 99.9)),
+        "max": float(latency.max()),
+        "max_at": float((int(np.argmax(latency)) + 1) * 1e-3),
+        "over_1ms": float(np.mean(latency > 1e-3)),
+    }
+
+
+def _median_of(figures: list[dict[str, float]], key: str) -> float:
+    return statistics.median(x[key] for x in figures)
+
+
+def print_latency(results: dict) -> None:
+    """The table of doStep latencies: per run the median over the repeats of each figure, and the
+    spread of the tail ratios (99.9th percentile and maximum over the median) across the repeats."""
+    print(
+        "\n| run | doStep median ms | 99th ms | 99.9th ms | max ms (at t s) | 99.9th / median (spread) "
+        "| max / median (spread) | share over 1 ms |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    for name, (runs, _, _) in results.items():
+        lat = [r["latency"] for r in runs]
+        med = functools.partial(_median_of, lat)
+        tail = [x["p999"] / x["median"] for x in lat]
+        top = [x["max"] / x["median"] for x in lat]
+        print(
+            f"| {name} | {med('median') * 1e3:.3f} | {med('p99') * 1e3:.2f} | {med('p999') * 1e3:.2f} "
+            f"| {med('max') * 1e3:.2f} ({lat[0]['max_at']:.3f}) | {statistics.median(tail):.1f} "
+            f"({min(tail):.1f}-{max(tail):.1f}) | {statistics.median(top):.1f} ({min(top):.1f}-{max(top):.1f}) "
+            f"| {med('over_1ms') * 100:.1f} % |"
+        )
 
 
 def run_once(fmu: Path, spec: dict) -> dict:
@@ -182,6 +237,7 @@ def main() -> None:
             f"| {name} | {statistics.median(cpu):.3f} ({min(cpu):.3f}-{max(cpu):.3f}) | {wall:.3f} | {ratio} "
             f"| {statistics.median(r['startup'] for r in runs):.2f} | {dtheta:.2e} | {energy:.1e} |"
         )
+    print_latency(results)
 
 
 if __name__ == "__main__":
