@@ -158,7 +158,12 @@ def test_ctrl_c_ends_a_run_with_what_it_has_and_no_traceback(fmus, tmp_path):
 
     command = [str(Path(sys.executable).parent / "fem-pendulum"), "run", "--fmu", str(fmus[0])]
     child = subprocess.Popen(
-        [*command, "--stop-time", "60", "--out", "o/run"], cwd=tmp_path, stderr=subprocess.PIPE, text=True
+        [*command, "--stop-time", "60", "--out", "o/run"],
+        cwd=tmp_path,
+        stderr=subprocess.PIPE,
+        text=True,
+        # as a terminal's foreground job has it: a suite started in the background inherits SIGINT ignored
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     time.sleep(8.0)
     child.send_signal(signal.SIGINT)
