@@ -191,7 +191,8 @@ def _tracking(time: np.ndarray, error: np.ndarray, values: dict[str, float], tim
     values["rms_error"] = float(np.sqrt(np.mean(error**2)))
     k = int(np.argmax(np.abs(error)))
     values["max_error"], times["max_error"] = float(abs(error[k])), float(time[k])
-    last = time >= time[-1] - STEADY_STATE_SHARE * (time[-1] - time[0])
+    # the rows from 90 % of the run on, that at 90 % included however the times were rounded
+    last = time >= time[-1] - STEADY_STATE_SHARE * (time[-1] - time[0]) * (1.0 + 1e-9)
     values["steady_state_error"] = float(np.mean(error[last]))
 
 
