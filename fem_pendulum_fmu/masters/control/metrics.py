@@ -38,7 +38,7 @@ and `missing` says why. Every figure is a plain float (impacts too); numpy only,
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, KeysView
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -108,7 +108,7 @@ class Metrics:
     def __len__(self) -> int:
         return len(self.values)
 
-    def keys(self) -> Any:
+    def keys(self) -> KeysView[str]:
         """The names of the metrics measured (so that dict(metrics) is metrics.values)."""
         return self.values.keys()
 
