@@ -130,7 +130,7 @@ TORQUE_ALLOWED = "use a number, step:A[,T], sine:A,F, ramp:R (N.m) or a CSV file
         ("sine:1,0", "angle", "--setpoint 'sine:1,0': the frequency '0' is not a finite number > 0 (Hz); "),
         ("sine:1,nan", "torque", "--disturbance 'sine:1,nan': the frequency 'nan' is not a finite number > 0 (Hz)"),
         ("sine:nan,1", "angle", "--setpoint 'sine:nan,1': the amplitude 'nan' is not a finite number in rad"),
-        ("ramp:1,2", "angle", "--setpoint 'ramp:1,2': ramp:R takes 1 numbers, not 2; "),
+        ("ramp:1,2", "angle", "--setpoint 'ramp:1,2': ramp:R takes 1 number, not 2; "),
         ("ramp:5deg/s", "angle", "--setpoint 'ramp:5deg/s': the rate '5deg/s' is not a finite number in rad"),
     ],
 )

@@ -222,7 +222,8 @@ def _parse_form(form: str, rest: str, quantity: Quantity, fail: Callable[[str], 
     usage = {"step": "step:A[,T]", "sine": "sine:A,F", "ramp": "ramp:R"}
     low, high = counts[form]
     if not low <= len(arguments) <= high:
-        raise fail(f"{usage[form]} takes {low if low == high else f'{low} or {high}'} numbers, not {len(arguments)}")
+        takes = f"{low} or {high} numbers" if low != high else f"{low} number" + ("s" if low > 1 else "")
+        raise fail(f"{usage[form]} takes {takes}, not {len(arguments)}")
     amount = _number(arguments[0], SUFFIXES[quantity])
     if amount is None:
         what = "rate" if form == "ramp" else "amplitude"
