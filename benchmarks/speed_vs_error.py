@@ -61,7 +61,7 @@ class SceneCase:
     t_end: float
     preset: str
     values: dict = field(default_factory=dict)
-    loop: bool = False  # the PID controller FMU in the loop (masters/controller_loop.py)
+    loop: bool = False  # the PID controller FMU in the loop (masters/control/)
 
 
 SCENES = (
@@ -221,12 +221,12 @@ def _child(spec: dict) -> None:
     pendulum = NamedSlave(spec["fmu"], "pendulum", spec["values"])
     controller = None
     if spec["loop"]:
-        from fem_pendulum_fmu.masters.controller_loop import LoopSettings, drive
+        from fem_pendulum_fmu.masters.control.command import DEFAULT_SETPOINT
+        from fem_pendulum_fmu.masters.control.loop import drive
+        from fem_pendulum_fmu.masters.control.signals import parse_signal
 
-        loop = LoopSettings()
-        controller = NamedSlave(
-            spec["pid"], "pid", {"Kp": loop.kp, "Ki": loop.ki, "Kd": loop.kd, "u_max": loop.drive_limit}
-        )
+        setpoint, drive_limit = parse_signal(DEFAULT_SETPOINT, "angle", "--setpoint"), 15.0
+        controller = NamedSlave(spec["pid"], "pid", {})  # the PID FMU's own gains, as fem-pendulum control
     init = time.perf_counter() - t0
     h, n = COMM_STEP, int(round(spec["t_end"] / COMM_STEP))
     rows = [pendulum.get(*RECORDED)]
@@ -237,10 +237,10 @@ def _child(spec: dict) -> None:
     for k in range(n):
         torque = 0.0
         if controller is not None:
-            controller.set("setpoint", loop.setpoint(t))
+            controller.set("setpoint", setpoint(t))
             controller.set("measurement", rows[-1][0])
             controller.fmu.doStep(t, h)
-            torque = drive(controller.get("u")[0], loop.drive_limit)
+            torque = drive(controller.get("u")[0], drive_limit)
         pendulum.set("torque", torque)
         try:
             pendulum.fmu.doStep(t, h)
@@ -348,7 +348,7 @@ def first_rebound_peak(theta: np.ndarray, omega: np.ndarray, gap: np.ndarray, ba
     """theta at the first peak after the first rebound from the wall (nan if there is none).
 
     The rebound is the first sample interval in which omega turns from towards the
-    wall to away from it with the gap under `band` (as controller_loop.wall_impacts);
+    wall to away from it with the gap under `band` (as masters/control/figure.py wall_impacts);
     the peak is the largest theta until omega turns back."""
     reb = rebounds(omega, gap, band)
     if len(reb) == 0:

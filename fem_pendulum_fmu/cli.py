@@ -46,7 +46,8 @@ class DefaultsHelp(argparse.ArgumentDefaultsHelpFormatter):
 
 def parser() -> argparse.ArgumentParser:
     from .fmi import host_env, interface
-    from .masters import controller_loop, open_loop, sweep
+    from .masters import open_loop, sweep
+    from .masters.control import command as control
 
     top = argparse.ArgumentParser(
         prog="fem-pendulum", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -63,9 +64,9 @@ def parser() -> argparse.ArgumentParser:
         ),
         (
             "control",
-            "a PID controller FMU in the loop, CSV and plot",
-            controller_loop.add_arguments,
-            controller_loop.command,
+            "a controller FMU in the loop (the PID FMU, or yours), CSV, plot and metrics",
+            control.add_arguments,
+            control.command,
         ),
         (
             "sweep",

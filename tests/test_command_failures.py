@@ -76,11 +76,11 @@ def test_a_run_that_stops_early_writes_what_it_has_and_exits_1(fmus, tmp_path):
 
 def test_control_checks_its_arguments_first(fmus, tmp_path):
     for args, words in (
-        (["--pid", "missing.fmu"], ["--pid 'missing.fmu'", "fem-pendulum build"]),
+        (["--controller", "missing.fmu"], ["--controller 'missing.fmu'", "fem-pendulum build"]),
         (["--stop-time", "inf"], ["--stop-time inf"]),
         (["--set", "wall.kind=soft"], ["wall.kind", "'soft'", "rigid, deformable, none"]),
     ):
-        pid = [] if "--pid" in args else ["--pid", str(fmus[1])]
+        pid = [] if "--controller" in args else ["--controller", str(fmus[1])]
         run = fem_pendulum("control", "--fmu", str(fmus[0]), *pid, *args, cwd=tmp_path)
         assert run.returncode == 2, run.stdout + run.stderr
         assert run.stderr.startswith("fem-pendulum control: error: ") and run.stderr.count("\n") == 1, run.stderr
@@ -92,7 +92,7 @@ def test_a_controller_loop_that_stops_early_writes_what_it_has_and_exits_1(fmus,
     3.8 s of CPU) after the retry in two half steps; the loop ends there."""
     sets = [word for item in FAILING for word in ("--set", item)]
     run = fem_pendulum(
-        "control", "--fmu", str(fmus[0]), "--pid", str(fmus[1]), "--stop-time", "1", *sets, "--out", "c/control",
+        "control", "--fmu", str(fmus[0]), "--controller", str(fmus[1]), "--stop-time", "1", *sets, "--out", "c/control",
         cwd=tmp_path,
     )  # fmt: skip
     assert run.returncode == 1, run.stdout + run.stderr

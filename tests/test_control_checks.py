@@ -142,12 +142,14 @@ def table_of(theta: np.ndarray, force: np.ndarray) -> pd.DataFrame:
 
 
 def test_a_loop_result_is_checked_through_its_metrics():
-    t = np.arange(1001) * DT
+    t = np.arange(2001) * DT
     force = np.where((t > 0.3) & (t < 0.305), 600.0, 0.0)  # one impact, steps ending at 0.301 .. 0.304 s
-    theta = 0.2 * (1 - np.exp(-t / 0.1))  # first order: no overshoot, within 2 % after 0.1 s * ln 50 = 0.391 s
+    # first order: within 2 % after 0.1 s * ln 50 = 0.391 s; its final value, the mean of the last 10 % of the
+    # run, is 1e-9 of the step below its last row, which is the peak: an overshoot of 1e-9
+    theta = 0.2 * (1 - np.exp(-t / 0.1))
     step = parse_signal("step:0.2", "angle")
     result = Result(loop_metrics(table_of(theta, force), step_size=DT, drive_limit=15.0, setpoint=step))
-    assert_loop(result, settles_within=0.392, overshoot_below=1e-12, impacts_at_most=1, max_contact_force_below=601)
+    assert_loop(result, settles_within=0.392, overshoot_below=1e-6, impacts_at_most=1, max_contact_force_below=601)
     with pytest.raises(LoopCheckFailed) as raised:
         assert_loop(result, settles_within=0.39, max_contact_force_below=500)
     assert raised.value.failures == [

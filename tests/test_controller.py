@@ -11,7 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fem_pendulum_fmu.masters.controller_loop import LoopSettings, drive
+from fem_pendulum_fmu.masters.control.command import DEFAULT_SETPOINT
+from fem_pendulum_fmu.masters.control.loop import drive
+from fem_pendulum_fmu.masters.control.signals import parse_signal
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
 from fem_pendulum_fmu.physics.scene import Scene
 
@@ -45,11 +47,12 @@ def linear_tracking_rms() -> float:
 
     Rigid pendulum of the design's numbers (I = 0.0445 kg m^2, m g c = 1.091 * 9.81 * 0.1817
     N.m/rad) under the PID: theta/setpoint = C(s) / (I s^2 + m g c + C(s)), C = Kp + Ki/s + Kd s."""
-    s = LoopSettings()
-    w = 2j * math.pi * s.frequency
-    c = s.kp + s.ki / w + s.kd * w
+    kp, ki, kd = 10.0, 4.0, 0.15  # the PID FMU's defaults (masters/pid/fem_pendulum_pid_entry.py)
+    amplitude, frequency = math.radians(20.0), 0.75  # the default set-point, DEFAULT_SETPOINT
+    w = 2j * math.pi * frequency
+    c = kp + ki / w + kd * w
     ratio = c / (0.0445 * w**2 + 1.091 * 9.81 * 0.1817 + c)
-    return abs(1 - ratio) * s.amplitude / math.sqrt(2)
+    return abs(1 - ratio) * amplitude / math.sqrt(2)
 
 
 @pytest.mark.slow
@@ -91,7 +94,8 @@ def test_energy_balance_holds_in_the_loop(fem_loop):
 
 def test_drive_limits_the_torque():
     assert drive(40.0, 15.0) == 15.0 and drive(-40.0, 15.0) == -15.0 and drive(3.0, 15.0) == 3.0
-    assert abs(LoopSettings().setpoint(1 / 3) - math.radians(20.0)) < 1e-12
+    setpoint = parse_signal(DEFAULT_SETPOINT, "angle", "--setpoint")
+    assert abs(setpoint(1 / 3) - math.radians(20.0)) < 1e-12  # a quarter period of 0.75 Hz
 
 
 def test_pid_saturates_and_stops_integrating():

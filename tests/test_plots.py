@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from fem_pendulum_fmu.masters.controller_loop import OUTPUTS, STEP_SUMMARIES, both_halves, loop_figure, plot_loop
+from fem_pendulum_fmu.masters.control.figure import loop_figure, plot_loop
+from fem_pendulum_fmu.masters.control.loop import OUTPUTS, STEP_SUMMARIES, both_halves
 from fem_pendulum_fmu.masters.plots import impact_steps, impacts, plot_results, results_figure
 from fem_pendulum_fmu.masters.sweep.figures import NEEDED, UNITS, Figures, summarise
 from fem_pendulum_fmu.masters.sweep.plot import label, summary_figure

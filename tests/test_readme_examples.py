@@ -12,8 +12,10 @@ reason and what is checked instead. A new block needs an entry in SHELL.
 from __future__ import annotations
 
 import csv
+import importlib
 import importlib.metadata
 import importlib.util
+import json
 import math
 import re
 import shlex
@@ -60,8 +62,13 @@ def check_physics(stdout: str) -> None:
     assert abs(energy - start) < 1e-9 * abs(start)
 
 
+def check_controller_test(out: str) -> None:
+    assert re.search(r"\b1 passed\b", out), out
+
+
 # a word that identifies a block -> the check of its output
 CHECKS: dict[str, Callable[[str], None]] = {
+    "def test_my_controller(pendulum_loop)": check_controller_test,
     "simulate_fmu(": check_fmpy_api,
     "from fem_pendulum_fmu import compliant, create": check_physics,
 }
@@ -81,8 +88,12 @@ def test_readme_example_runs(index, fmus, tmp_path):
     (tmp_path / "dist").mkdir()
     (tmp_path / "dist" / "FemPendulum.fmu").symlink_to(fmus[0])
     script = tmp_path / "example.py"
+    command = [sys.executable, str(script)]
+    if "(pendulum_loop)" in block:  # a test file: pytest runs it, the plugin's fixture finding dist/FemPendulum.fmu
+        script = tmp_path / "test_example.py"
+        command = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(script)]
     script.write_text(block)
-    run = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    run = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, f"README example {index} failed:\n{block}\n{run.stderr[-3000:]}"
     for key, check in CHECKS.items():
         if key in block:
@@ -239,25 +250,44 @@ def check_field_output(folder: Path, run: subprocess.CompletedProcess[str]) -> N
 
 def check_controller(folder: Path, run: subprocess.CompletedProcess[str]) -> None:
     # the printed line and out/control.csv against the figures the README states; 6 s
-    from fem_pendulum_fmu.masters.controller_loop import wall_impacts
+    from fem_pendulum_fmu.masters.control.figure import wall_impacts
 
-    stated = re.search(r"(\d+) rebounds in the first such half-period, RMS tracking error ([\d.]+) degrees", readme())
+    stated = re.search(
+        r"(\d+) rebounds in the first such half-period, (\d+) wall impacts in\s+all and an RMS tracking error of "
+        r"([\d.]+) degrees",
+        readme(),
+    )
     assert stated, "the README's controller figures"
     line = re.fullmatch(
-        r"wrote out/control.csv and out/control.png; RMS tracking error away from the wall (\S+) deg, "
-        r"(\d+) wall impacts, min gap (\S+) mm",
+        r"wrote out/control.csv, out/control.png and out/control.json; RMS tracking error (\S+) deg, "
+        r"(\d+) wall impacts, largest contact force (\S+) N, (\S+) s at the drive limit",
         run.stdout.strip(),
     )
     assert line, run.stdout
-    assert abs(float(line.group(1)) - float(stated.group(2))) < 0.1, line.group(0)  # measured 3.45 deg
+    assert abs(float(line.group(1)) - float(stated.group(3))) < 0.1, line.group(0)  # measured 9.08 deg
     assert (folder / "out" / "control.png").stat().st_size > 0
+    metrics = json.loads((folder / "out" / "control.json").read_text())["metrics"]
+    assert metrics["impacts"]["value"] == int(line.group(2)) == int(stated.group(2))  # measured 15
     data = np.genfromtxt(folder / "out" / "control.csv", delimiter=",", names=True)
     assert abs(data["time"][-1] - 2.0) < 1e-9
     impacts = wall_impacts(data)
-    assert len(impacts) == int(line.group(2))
     # the set-point is negative from 2/3 s to 4/3 s: measured 13 rebounds then (15 in all)
     during = impacts[(impacts > 0.66) & (impacts < 1.34)]
     assert abs(len(during) - int(stated.group(1))) <= 1, impacts
+
+
+def check_my_controller(folder: Path, run: subprocess.CompletedProcess[str]) -> None:
+    # the PID FMU with the README's gains on the rigid pendulum; the metrics file holds every figure named
+    assert run.stdout.startswith("wrote out/my_controller.csv, out/my_controller.png and out/my_controller.json; ")
+    report = json.loads((folder / "out" / "my_controller.json").read_text())
+    assert report["controller_set"] == ["Kp=20", "Ki=30", "Kd=0.6"] and report["disturbance"] == "step:-2,1.5"
+    m = {name: entry["value"] for name, entry in report["metrics"].items()}
+    assert {"overshoot", "rise_time", "settling_time", "steady_state_error", "max_impulse", "energy_error"} <= set(m)
+    # the integral term removes the steady-state error the disturbance makes: measured 0.0147 rad over the last
+    # 0.3 s, still recovering from the step at 1.5 s; without the disturbance it would be 0
+    assert m["impacts"] == 0 and abs(m["steady_state_error"]) < 0.03
+    table = np.genfromtxt(folder / "out" / "my_controller.csv", delimiter=",", names=True, deletechars="")
+    assert table["disturbance"][table["time"] > 1.5001].max() == -2.0 and table["disturbance"][1:1500].max() == 0.0
 
 
 def check_sweep_extra(block: str, folder: Path) -> None:
@@ -399,7 +429,8 @@ SHELL: dict[str, Runs | NotRun] = {
     "fmpy simulate": Runs(check_fmpy_command),
     "torque_sine.csv": Runs(check_open_loop, slow=True),
     "output.vtk_folder=out/fields": Runs(check_field_output),
-    "fem-pendulum control": Runs(check_controller, slow=True),
+    "--out out/control": Runs(check_controller, slow=True),
+    "--out out/my_controller": Runs(check_my_controller),
     'pip install ".[sweep]"': NotRun(
         "installs into .venv; the test's environment has the sweep extra's packages", check_sweep_extra
     ),

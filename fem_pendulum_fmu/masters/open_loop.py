@@ -71,7 +71,7 @@ def _cell(path: Path, row: list[str], number: int, name: str, k: int) -> float:
     return value
 
 
-def parse_start_values(items: list[str]) -> dict[str, float | int | bool | str]:
+def parse_start_values(items: list[str], option: str = "--set") -> dict[str, float | int | bool | str]:
     """NAME=VALUE pairs to start values; an enumeration takes its item name (model.fidelity=auto)
     or number, a Boolean true/false, a String the text as it is (output.vtk_folder=out/fields)."""
     from ..fmi import interface
@@ -81,12 +81,12 @@ def parse_start_values(items: list[str]) -> dict[str, float | int | bool | str]:
     for item in items:
         name, _, text = item.partition("=")
         if not _:
-            raise UsageError(f"--set {item!r}: expected NAME=VALUE")
+            raise UsageError(f"{option} {item!r}: expected NAME=VALUE")
         try:
             var = ifc.by_name(name)
         except KeyError:
             known = "see `fem-pendulum interface`"
-            raise UsageError(f"--set {item!r}: {name} is not a variable of the FMU ({known})") from None
+            raise UsageError(f"{option} {item!r}: {name} is not a variable of the FMU ({known})") from None
         if var.items and text in var.items:
             values[name] = var.item_number(text)
         elif var.type == "Boolean" and text.lower() in ("true", "false"):
@@ -98,7 +98,7 @@ def parse_start_values(items: list[str]) -> dict[str, float | int | bool | str]:
                 values[name] = float(text) if any(c in text for c in ".eE") else int(text)
             except ValueError:
                 allowed = f"one of {', '.join(var.items)} or their numbers" if var.items else f"a {var.type} number"
-                raise UsageError(f"--set {item!r}: {text!r} is not allowed for {name}: use {allowed}") from None
+                raise UsageError(f"{option} {item!r}: {text!r} is not allowed for {name}: use {allowed}") from None
     return values
 
 

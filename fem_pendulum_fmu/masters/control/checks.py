@@ -65,6 +65,7 @@ def assert_loop(
     """Check a run (anything with a `.metrics` that is a Metrics, or a Metrics) against the bounds
     given (None: not checked; units those of metrics.METRIC_UNITS: rad, N, N.s, s, J, a count, a
     fraction of the step); LoopCheckFailed listing every failed check."""
+    __tracebackhide__ = True  # pytest shows the failed checks, not this function's source
     bounds = {
         "rms_error_below": rms_error_below,
         "max_error_below": max_error_below,

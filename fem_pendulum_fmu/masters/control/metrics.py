@@ -14,12 +14,14 @@ instant, when):
 - steady_state_error (rad): the mean error over the rows of the last 10 % of the run (signed;
   meaningful when the set-point holds still at the end);
 - for a step set-point (Signal kind "step"), the response theta takes from its value at the step's
-  first row, theta_s, towards the amplitude A (the step is A - theta_s; none if it is 0):
-  overshoot (a fraction of the step, >= 0, at the time of the peak), rise_time (s, from 10 % to 90 %
-  of the step, the crossings interpolated between rows; math.inf if it never gets to 90 %) and
-  settling_time (s from the step's time until theta enters, for good, the band of 2 % of the step
-  around A, interpolated between rows; math.inf if it is outside the band at the end of the run, so
-  that a bound on it fails);
+  first row, theta_s, to its final value theta_f, the mean theta over the last 10 % of the run (the
+  step is theta_f - theta_s; none if it is 0), as a control textbook measures it, so that a
+  response that settles off the set-point still has a settling time and steady_state_error says
+  how far off: overshoot (the peak beyond theta_f as a fraction of the step, >= 0, at the time of
+  the peak), rise_time (s, from 10 % to 90 % of the step, the crossings interpolated between rows;
+  math.inf if it never gets to 90 %) and settling_time (s from the step's time until theta enters,
+  for good, the band of 2 % of the step around theta_f, interpolated between rows; math.inf if it
+  is outside the band at the end of the run, so that a bound on it fails);
 - impacts (count): contact episodes, maximal runs of steps with contact_force_max > 0 or
   contact_impulse > 0; its time is the first's, and `impact_times` lists them all;
 - max_contact_force (N): the largest contact_force_max, at the time of its step;
@@ -191,9 +193,13 @@ def _tracking(time: np.ndarray, error: np.ndarray, values: dict[str, float], tim
     values["rms_error"] = float(np.sqrt(np.mean(error**2)))
     k = int(np.argmax(np.abs(error)))
     values["max_error"], times["max_error"] = float(abs(error[k])), float(time[k])
-    # the rows from 90 % of the run on, that at 90 % included however the times were rounded
-    last = time >= time[-1] - STEADY_STATE_SHARE * (time[-1] - time[0]) * (1.0 + 1e-9)
-    values["steady_state_error"] = float(np.mean(error[last]))
+    values["steady_state_error"] = float(np.mean(error[steady_rows(time)]))
+
+
+def steady_rows(time: np.ndarray) -> np.ndarray:
+    """The rows of the last STEADY_STATE_SHARE of the run, that at its start included however the
+    times were rounded."""
+    return time >= time[-1] - STEADY_STATE_SHARE * (time[-1] - time[0]) * (1.0 + 1e-9)
 
 
 def _step_response(
@@ -210,9 +216,9 @@ def _step_response(
         missing.update(dict.fromkeys(STEP_METRICS, reason))
         return
     first = int(np.argmax(time >= setpoint.step_time))  # the step's first row: theta there has not answered yet
-    start = theta[first]
+    start, final = theta[first], float(np.mean(theta[steady_rows(time)]))
     t = time[first:]
-    response = (theta[first:] - start) / (setpoint.amplitude - start)  # 0 at the step, 1 at the set-point
+    response = (theta[first:] - start) / (final - start)  # 0 at the step, 1 at the final value
     peak = int(np.argmax(response))
     values["overshoot"], times["overshoot"] = max(0.0, float(response[peak]) - 1.0), float(t[peak])
     risen = first_crossing(t, response, RISE_TO)
@@ -229,9 +235,9 @@ def _no_step_response(time: np.ndarray, theta: np.ndarray, setpoint: Signal | No
     after = time >= setpoint.step_time
     if not after.any():
         return f"the step at t = {setpoint.step_time:g} s comes after the run's end (t = {time[-1]:g} s)"
-    start = float(theta[int(np.argmax(after))])
-    if setpoint.amplitude == start:
-        return f"the step to {setpoint.amplitude:g} rad starts there (theta = {start:g} rad): it has no size"
+    start, final = float(theta[int(np.argmax(after))]), float(np.mean(theta[steady_rows(time)]))
+    if final == start:
+        return f"theta did not move from {start:g} rad after the step to {setpoint.amplitude:g} rad: no response"
     return ""
 
 

@@ -1,0 +1,143 @@
+"""The fixed-step master of the controller loop: controller, drive and pendulum FMU.
+
+At each communication point t_k the master reads the pendulum's outputs, gives the controller
+those and the set-point at t_k, takes the demand it answers for the step [t_k, t_k + h] (a
+controller FMU is stepped over that interval first: controller, then pendulum, Gauss-Seidel),
+limits it to the drive's torque, adds the disturbance at t_k and holds the sum on the pendulum's
+torque input while the pendulum steps. So the torque over a step is the controller's law applied
+to what was measured at its start: a sample-and-hold of one step, no further delay. A step the
+pendulum discards is retried in two halves with the same torque (the controller is not asked
+again); a run that cannot go on ends there, with the reason in `LoopRun.stopped`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..named_slave import NamedSlave
+from ..run_progress import RunProgress
+from .controllers import Controller, Measurements
+from .series import COLUMNS
+
+# the pendulum outputs read at every point: the first six are table columns at the point, the last
+# three the step summaries (both_halves reads them at the end)
+STEP_SUMMARIES = ("gap_min", "contact_force_max", "contact_impulse")
+OUTPUTS = ("theta", "omega", "gap", "contact_force", "energy.total", "energy.torque_work", *STEP_SUMMARIES)
+
+
+def drive(demand: float, limit: float) -> float:
+    """The drive delivers the demanded torque up to its limit."""
+    return max(-limit, min(limit, demand))
+
+
+def both_halves(first: list[float], outputs: list[float]) -> list[float]:
+    """The outputs after a step taken in two halves, its STEP_SUMMARIES (at the end of `outputs`) made
+    those of the whole step: the smaller gap_min, the larger force, the sum of the impulses."""
+    n = len(OUTPUTS) - len(STEP_SUMMARIES)
+    (gap0, force0, impulse0), (gap1, force1, impulse1) = first, outputs[n : len(OUTPUTS)]
+    return [*outputs[:n], min(gap0, gap1), max(force0, force1), impulse0 + impulse1, *outputs[len(OUTPUTS) :]]
+
+
+@dataclass(frozen=True)
+class LoopInputs:
+    """Everything a loop run is given besides its controller (plain data, checked by the caller)."""
+
+    fmu: Path
+    setpoint: Callable[[float], float]
+    disturbance: Callable[[float], float] = lambda t: 0.0
+    stop_time: float = 2.0
+    step: float = 1e-3
+    start_values: Mapping[str, float | int | bool | str] = field(default_factory=dict)
+    drive_limit: float = 15.0
+    progress: bool = True
+
+
+@dataclass
+class LoopRun:
+    """The loop's table (columns of series.py), and why it ended before its stop time (None: it ran
+    to the end); `problems` are the pendulum FMU's Discard and Error messages."""
+
+    table: np.ndarray
+    stopped: str | None = None
+    problems: list[str] = field(default_factory=list)
+
+
+def run_loop(inputs: LoopInputs, controller: Controller) -> LoopRun:
+    """Co-simulate the controller and the pendulum FMU from t = 0 to the stop time (module docstring);
+    the controller is closed at the end."""
+    pendulum = NamedSlave(inputs.fmu, "pendulum", {"theta0": 0.0, **inputs.start_values})
+    names = OUTPUTS + tuple(n for n in controller.reads() if n not in OUTPUTS)
+    picks = [names.index(n) for n in controller.reads()]
+    vrs = [pendulum.vr[n] for n in names]
+    n = int(round(inputs.stop_time / inputs.step))
+    bar = RunProgress(n, enabled=inputs.progress)
+    rows: list[tuple[float, ...]] = []
+    stopped = None
+    try:
+        reading = pendulum.fmu.getReal(vrs)
+        applied = (0.0, 0.0, 0.0)  # demand, disturbance, torque over the step that ended at t (none yet)
+        for k in range(n + 1):
+            t = k * inputs.step
+            rows.append(_row(t, inputs.setpoint(t), reading, applied))
+            if k == n:
+                break
+            m = Measurements(t, reading[0], reading[1], reading[2], reading[3], rows[-1][1], applied[2])
+            stopped, demand = _ask(controller, m, inputs.step, [reading[i] for i in picks])
+            if stopped is not None:
+                break
+            disturbance = inputs.disturbance(t)
+            applied = (demand, disturbance, drive(demand, inputs.drive_limit) + disturbance)
+            stopped, reading = _step_pendulum(pendulum, vrs, t, inputs, applied[2])
+            if stopped is not None:
+                break
+            bar.step()
+    finally:
+        bar.close()
+        pendulum.close()
+        controller.close()
+    table = np.array(rows, dtype=[(c, float) for c in COLUMNS])
+    return LoopRun(table, stopped, pendulum.problems)
+
+
+def _row(t: float, setpoint: float, reading: list[float], applied: tuple[float, float, float]) -> tuple[float, ...]:
+    """A table row in the order of series.COLUMNS."""
+    return (t, setpoint, *reading[:6], *applied, *reading[6:9])
+
+
+def _ask(controller: Controller, m: Measurements, step: float, extra: list[float]) -> tuple[str | None, float]:
+    """The controller's demand, or why the loop must stop (a controller FMU that failed)."""
+    from fmpy.fmi1 import FMICallException
+
+    try:
+        return None, controller.demand(m, step, extra)
+    except FMICallException as exc:
+        return f"the controller {controller.description} stopped at t = {m.time:.6g} s: {exc}", math.nan
+
+
+def _step_pendulum(
+    pendulum: NamedSlave, vrs: list[int], t: float, inputs: LoopInputs, torque: float
+) -> tuple[str | None, list[float]]:
+    """Step the pendulum over [t, t + step] with `torque`, in two halves if the whole step is
+    discarded (its state is then unchanged); the outputs after it, or why it could not go on."""
+    from fmpy.fmi1 import FMICallException
+
+    h = inputs.step
+    pendulum.set("torque", torque)
+    try:
+        pendulum.fmu.doStep(t, h)
+        return None, pendulum.fmu.getReal(vrs)
+    except FMICallException:
+        pass
+    try:
+        pendulum.fmu.doStep(t, h / 2)
+        first = pendulum.get(*STEP_SUMMARIES)
+        pendulum.fmu.doStep(t + h / 2, h / 2)
+    except FMICallException:
+        said = pendulum.problems[-1] if pendulum.problems else "the FMU gave no message"
+        return f"the pendulum FMU stopped at t = {t:.6g} s of {inputs.stop_time:g} s: {said}", []
+    return None, both_halves(first, pendulum.fmu.getReal(vrs))
