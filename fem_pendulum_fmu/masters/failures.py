@@ -25,6 +25,16 @@ class IncompleteRun(RuntimeError):
     """A run that ended before its stop time; what it wrote is kept."""
 
 
+def finite_cell(row: list[str], k: int) -> tuple[float | None, str]:
+    """Cell k of a CSV row as a finite number (None if it is not one, or missing), and its text."""
+    text = row[k].strip() if k < len(row) else ""
+    try:
+        value = float(text)
+    except ValueError:
+        return None, text
+    return (value if math.isfinite(value) else None), text
+
+
 def check_times(stop_time: float, step: float) -> None:
     """UsageError unless the stop time is finite and positive and the step positive and not above it."""
     if not (math.isfinite(stop_time) and stop_time > 0.0):

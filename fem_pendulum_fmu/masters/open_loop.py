@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,11 +26,11 @@ from .failures import (
     check_start_values,
     check_times,
     fidelity_choice,
+    finite_cell,
 )
 from .realtime import Pacer
+from .run_options import DEFAULT_FMU, add_run_options  # noqa: F401  (DEFAULT_FMU: masters/sweep imports it from here)
 from .run_progress import RunProgress
-
-DEFAULT_FMU = Path("dist") / "FemPendulum.fmu"
 
 
 def read_torque_csv(path: Path) -> np.ndarray:
@@ -61,12 +60,8 @@ def read_torque_csv(path: Path) -> np.ndarray:
 
 def _cell(path: Path, row: list[str], number: int, name: str, k: int) -> float:
     """Cell k of CSV row `number` as a finite number, or UsageError naming where it is."""
-    text = row[k].strip() if k < len(row) else ""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value):
+    value, text = finite_cell(row, k)
+    if value is None:
         raise UsageError(f"--torque {str(path)!r}, row {number}, column {name}: {text!r} is not a finite number")
     return value
 
@@ -186,17 +181,8 @@ def incomplete(result: RunResult, stop_time: float, wrote: str) -> IncompleteRun
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--fmu", type=Path, default=DEFAULT_FMU, help="the FMU `fem-pendulum build` wrote")
+    add_run_options(parser)
     parser.add_argument("--torque", type=Path, help="CSV with columns time,torque (N.m); without it the torque is 0")
-    parser.add_argument("--stop-time", type=float, default=2.0, help="simulated time (s)")
-    parser.add_argument("--step", type=float, default=1e-3, help="communication step (s)")
-    parser.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="start value of a parameter (repeatable; `fem-pendulum interface` lists them)",
-    )
     parser.add_argument("--out", type=Path, default=Path("out") / "run", help="prefix of the CSV and PNG written")
     parser.add_argument(
         "--animate",

@@ -61,6 +61,21 @@ def entry_name(kind: str, key: dict[str, Any], suffix: str) -> str:
     return f"{kind}-{hashlib.sha256(text.encode()).hexdigest()[:24]}{suffix}"
 
 
+def write_atomically(path: Path, write: Callable[[Path], None]) -> Path:
+    """`write(tmp)` to a temporary file beside `path`, renamed to `path` when it is complete: a
+    reader (another process) sees the whole file or none (its folder is made if missing)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}_", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path
+
+
 def cached_file(kind: str, key: dict[str, Any], suffix: str, write: Callable[[Path], None]) -> Path | None:
     """Path of the entry for (kind, key), written by `write(path)` if absent; None if caching is off
     or the folder cannot be written (the caller then builds without the cache)."""
@@ -71,15 +86,7 @@ def cached_file(kind: str, key: dict[str, Any], suffix: str, write: Callable[[Pa
     if path.exists():
         return path
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=path.stem, suffix=suffix, dir=folder)
-        os.close(fd)
-        try:
-            write(Path(tmp))
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
+        write_atomically(path, write)
     except OSError as exc:
         LOG.warning("cache %s not usable (%s); building without it", folder, exc)
         return None

@@ -2,34 +2,30 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 DIST = Path("dist")
 
 
 def default_fmu(name: str, folder: Path = DIST) -> Path:
-    """folder/name (FemPendulum.fmu or PidController.fmu), built there first if it is missing; the
-    build goes to a temporary file renamed into place, so that a reader never sees half an FMU."""
+    """folder/name (FemPendulum.fmu or PidController.fmu), built there first if it is missing (to a
+    temporary file renamed into place, so that a reader never sees half an FMU)."""
+    from ..physics.cache import write_atomically
+
     path = Path(folder) / name
-    if path.is_file():
-        return path
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}_", suffix=".fmu", dir=path.parent)
-    os.close(fd)
-    try:
-        if name == "PidController.fmu":
-            from ..fmi.builder import validate
-            from ..masters.pid.build import build_pid_fmu
-
-            validate(build_pid_fmu(Path(tmp)))
-        else:
-            from ..fmi.builder import build_pendulum
-
-            build_pendulum(Path(tmp))
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    if not path.is_file():
+        write_atomically(path, _build_pid if name == "PidController.fmu" else _build_pendulum)
     return path
+
+
+def _build_pid(path: Path) -> None:
+    from ..fmi.builder import validate
+    from ..masters.pid.build import build_pid_fmu
+
+    validate(build_pid_fmu(path))
+
+
+def _build_pendulum(path: Path) -> None:
+    from ..fmi.builder import build_pendulum
+
+    build_pendulum(path)

@@ -28,6 +28,7 @@ from ..failures import (
     check_times,
     fidelity_choice,
 )
+from ..run_options import DEFAULT_FMU, add_run_options
 
 if TYPE_CHECKING:
     from .metrics import Metrics
@@ -37,13 +38,12 @@ DEFAULT_SETPOINT = "sine:20deg,0.75"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    dist = Path("dist")
+    add_run_options(parser, "communication step of both FMUs (s)")
     add = parser.add_argument
-    add("--fmu", type=Path, default=dist / "FemPendulum.fmu", help="the pendulum FMU `fem-pendulum build` wrote")
     add(
         "--controller",
         type=Path,
-        default=dist / "PidController.fmu",
+        default=DEFAULT_FMU.parent / "PidController.fmu",
         help="an FMI 2.0 co-simulation controller FMU (default: the PID FMU `fem-pendulum build` wrote)",
     )
     add(
@@ -69,15 +69,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add("--disturbance", default="0", help="a torque added at the hinge (N.m), in the forms of --setpoint")
     add("--drive-limit", type=float, default=15.0, help="the drive delivers the demand up to this torque (N.m)")
-    add("--stop-time", type=float, default=2.0, help="simulated time (s)")
-    add("--step", type=float, default=1e-3, help="communication step of both FMUs (s)")
-    add(
-        "--set",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="start value of a pendulum parameter (repeatable; `fem-pendulum interface` lists them)",
-    )
     add("--out", type=Path, default=Path("out") / "control", help="prefix of the CSV, PNG and JSON written")
 
 

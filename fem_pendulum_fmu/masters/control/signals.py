@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, get_args
 
-from ..failures import UsageError
+from ..failures import UsageError, finite_cell
 
 Quantity = Literal["angle", "torque"]
 Kind = Literal["constant", "step", "sine", "ramp", "table", "function"]
@@ -308,12 +308,8 @@ def read_signal_csv(path: Path, quantity: Quantity, name: str | None = None) -> 
 
 def _cell(row: list[str], k: int, column: str, number: int, fail: Callable[[str], UsageError]) -> float:
     """Cell k of data row `number` as a finite number, or the error naming where it is."""
-    text = row[k].strip() if k < len(row) else ""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value):
+    value, text = finite_cell(row, k)
+    if value is None:
         raise fail(f"row {number}, column {column}: {text!r} is not a finite number")
     return value
 
