@@ -10,6 +10,11 @@ checks doStep's torque and step (physics/protocol.py: a ValueError, state
 unchanged), which the slave answers the same way; a step the model cannot
 complete (StepFailed) answers fmi2Discard. The FMU's entry script subclasses
 `PendulumSlave` (see femp_slave_entry.py).
+
+Input derivatives of the torque (fmi2SetRealInputDerivatives) make the next doStep's torque a
+polynomial (physics/torque.py) and are cleared by that doStep once it succeeds; output derivatives
+(fmi2GetRealOutputDerivatives) are the model's (PendulumModel.output_derivatives), asked for once per
+communication point and input. docs/fmu.md, "Input interpolation and output derivatives".
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variabil
 from pythonfmu.variables import Boolean, Integer, Real, String
 
 from ..physics.fidelity import PendulumModel, StepFailed, create
+from ..physics.protocol import SUMMARY_OUTPUTS, OutputDerivatives
+from ..physics.torque import Torque, TorqueProfile
 from . import interface as fmi_interface
 from .fmi_logging import LOG, FmiLogHandler, route_to, routed, unroute
 from .fmu_state import FmuState
@@ -34,6 +41,7 @@ from .vtk_output import VtkSeries
 
 _PY_TYPES = {"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean": Boolean, "String": String}
 _TIME_TOL = 1e-9
+NO_RATES = (0.0, 0.0)  # the torque's first and second time derivative when the master gave none
 
 
 class PendulumSlave(CheckedVariableAccess):
@@ -47,13 +55,16 @@ class PendulumSlave(CheckedVariableAccess):
         self.interface = fmi_interface.load(self.resources)
         self.values: dict[str, Any] = {}
         self.torque = 0.0
+        self.torque_rates = NO_RATES  # d/dt and d2/dt2 of the torque at the communication point, for the next doStep
+        self._derivatives: tuple[tuple, OutputDerivatives] | None = None  # the last answer, and what it was for
         self.model: PendulumModel | None = None
         self.init_error: str | None = None
         self.broken: str | None = None  # set when the model raised something it does not promise
         # the last doStep was discarded and a shorter one from this state cannot succeed: the binary
         # answers fmi2Terminated = true, so that a master ends the run (or restores an earlier state)
         self.cannot_continue = False
-        self._discarded: tuple[float, float, float] | None = None  # (t, h, torque) of the last discarded doStep
+        # (t, h, torque, its derivatives) of the last discarded doStep
+        self._discarded: tuple[float, float, float, tuple[float, float]] | None = None
         self.initialised = False  # a model is built (at exitInitializationMode, or from a restored state)
         self.stepping = False  # exitInitializationMode succeeded: parameters are fixed from now on
         self.terminated = False
@@ -123,6 +134,7 @@ class PendulumSlave(CheckedVariableAccess):
 
     def _set_torque(self, value: float) -> None:
         self.torque = float(value)  # the model checks it at doStep, which then answers fmi2Error
+        # its derivatives stay: a master may set them before or after the value (docs/fmu.md)
 
     # -------------------------------------------------------------- life cycle
     def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
@@ -179,8 +191,8 @@ class PendulumSlave(CheckedVariableAccess):
         route_to(self._handler)  # as routed(), without a generator's cost at every step
         self.cannot_continue = False
         try:
-            self.outputs = model.advance(current_time + step_size, self.torque)
-            self._discarded = None
+            self.outputs = model.advance(current_time + step_size, self.step_torque())
+            self._discarded, self.torque_rates, self._derivatives = None, NO_RATES, None
             if self.vtk is not None and self.vtk.due(model.time):
                 self._write_frame()
         except StepFailed as exc:
@@ -202,7 +214,7 @@ class PendulumSlave(CheckedVariableAccess):
         """Set `cannot_continue` for a discarded doStep and say why it was discarded: true when no
         shorter step can help, or when the same step (time, size, torque) was just discarded: the model
         is deterministic, so a master that repeats it unchanged would repeat the Discard for ever."""
-        step = (t, h, self.torque)
+        step = (t, h, self.torque, self.torque_rates)
         repeated, self._discarded = self._discarded == step, step
         self.cannot_continue = repeated or not exc.shorter_step_helps
         advice = ""
@@ -217,6 +229,70 @@ class PendulumSlave(CheckedVariableAccess):
 
     def terminate(self) -> None:
         self.terminated = True
+
+    # ---------------------------------------------------- input and output derivatives
+    def step_torque(self) -> Torque:
+        """The torque of the next doStep: the input's value, a polynomial once derivatives are set."""
+        if self.torque_rates == NO_RATES:
+            return self.torque
+        return TorqueProfile(self.torque, *self.torque_rates)
+
+    def set_real_input_derivatives(self, vrs: list[int], orders: list[int], values: list[float]) -> None:
+        """fmi2SetRealInputDerivatives of the torque, orders 1 and 2 (the binary checks the references,
+        orders and values first; refused here too, for a caller without it)."""
+        rates = list(self.torque_rates)
+        for vr, order, value in zip(vrs, orders, values, strict=True):
+            var = self.vars.get(vr)
+            if var is None or var.causality != Fmi2Causality.input or order not in (1, 2) or not math.isfinite(value):
+                what = "no variable" if var is None else var.name
+                self._error(
+                    f"fmi2SetRealInputDerivatives refused: order {order!r} of value reference {vr} ({what}) = "
+                    f"{value!r}; only the torque's derivatives of order 1 and 2, finite, can be set"
+                )
+                return
+            rates[order - 1] = float(value)
+        self.torque_rates, self._derivatives = (rates[0], rates[1]), None
+
+    def get_real_output_derivatives(self, vrs: list[int], orders: list[int]) -> list[float]:
+        """fmi2GetRealOutputDerivatives: the model's derivatives of the continuous outputs at its time, with
+        the torque as the next doStep would take it; a per-step summary has none (fmi2Error, saying why)."""
+        fields: list[str] = []
+        for vr in vrs:
+            var = self.vars.get(vr)
+            field = OUTPUT_FIELDS.get(var.name) if var is not None else None
+            reason = "it is not an output" if field is None else SUMMARY_OUTPUTS.get(field)
+            if field is None or reason is not None:
+                name = var.name if var is not None else f"value reference {vr}"
+                self._error(f"fmi2GetRealOutputDerivatives refused: {name} has no time derivative: {reason}")
+                return [0.0] * len(vrs)
+            fields.append(field)
+        derivatives = self._output_derivatives()
+        if derivatives is None:
+            return [0.0] * len(vrs)
+        return [derivatives.of(field, order) for field, order in zip(fields, orders, strict=True)]
+
+    def _output_derivatives(self) -> OutputDerivatives | None:
+        """The model's output derivatives for the current state and torque (remembered until either
+        changes); None after reporting why there are none."""
+        model = self.model
+        if model is None or self.broken is not None:
+            self._error(f"fmi2GetRealOutputDerivatives refused: {self.broken or 'the FMU has no model'}")
+            return None
+        key = (model.time, self.torque, self.torque_rates)
+        if self._derivatives is not None and self._derivatives[0] == key:
+            return self._derivatives[1]
+        torque = TorqueProfile(self.torque, *self.torque_rates)
+        if torque.problems():  # the derivatives are those under the torque the next doStep would take
+            self._error(f"fmi2GetRealOutputDerivatives refused: {'; '.join(torque.problems())}")
+            return None
+        with routed(self._handler):
+            try:
+                found = model.output_derivatives(torque)
+            except (StepFailed, ValueError) as exc:  # a probe step of the model could not be taken
+                self._error(f"fmi2GetRealOutputDerivatives failed at t = {model.time!r}, state kept: {exc}")
+                return None
+        self._derivatives = (key, found)
+        return found
 
     # ------------------------------------------------------------ field output
     def _start_field_output(self) -> None:
@@ -255,7 +331,9 @@ class PendulumSlave(CheckedVariableAccess):
     def _get_fmu_state(self) -> FmuState:
         model = self.model.get_state() if self.model is not None else None
         # a state taken before initialisation brings its start time
-        return FmuState(model, self.torque, dict(self.values), self.initialised, self.communication_time)
+        return FmuState(
+            model, self.torque, dict(self.values), self.initialised, self.communication_time, self.torque_rates
+        )
 
     def _set_fmu_state(self, state: FmuState) -> None:
         """Restore a state of this FMU; anything else is refused (fmi2Error, state unchanged), never
@@ -283,7 +361,7 @@ class PendulumSlave(CheckedVariableAccess):
             self._discarded = None
         if state.model is None and self.model is None:
             self.time = state.time
-        self.torque = state.torque
+        self.torque, self.torque_rates, self._derivatives = state.torque, state.torque_rates, None
 
     @staticmethod
     def _fmu_state_to_bytes(state: FmuState) -> bytes:
