@@ -890,10 +890,18 @@ class Oracle:
         variables = [inst.fmu.by_vr(vr) for vr in vrs]
         bad = [vr for vr, v in zip(vrs, variables, strict=True) if v is None or v.type != type_]
         ok, why = self._state_rule(inst, (INIT, STEP, TERMINATED), name)
+        # in initializationMode the pendulum's outputs are those of the model its parameters describe
+        previewed = inst.fmu.kind == "pendulum" and inst.state == INIT and not inst.has_model
+        validity = parameter_validity(inst.fmu, inst.values) if previewed else "valid"
+        outputs = any(v is not None and v.causality == "output" for v in variables)
         if not ok:
             allowed = REFUSED
         elif bad:
             allowed, why = REFUSED, f"{name} of value reference {bad[0]}, not a {type_} variable"
+        elif outputs and validity == "invalid":
+            allowed, why = REFUSED, f"{name} of outputs in initializationMode with invalid parameters"
+        elif outputs and validity == "dubious":
+            allowed, why = frozenset({OK, WARNING, ERROR}), f"{name} of outputs in initializationMode, NaN parameters"
         else:
             allowed, why = SUCCESS, f"{name} in {inst.state}"
         step, status = self._simple(call, send, line.rstrip(), allowed, why, None if ok else inst.state)
@@ -910,7 +918,7 @@ class Oracle:
                     expected = inst.values[var.name]
                 elif var.name in inst.outputs and not inst.dubious:
                     expected = inst.outputs[var.name]
-                elif var.name in CHECKED_OUTPUTS[inst.fmu.kind] and not inst.dubious:
+                elif var.name in CHECKED_OUTPUTS[inst.fmu.kind] and not inst.dubious and validity == "valid":
                     inst.outputs[var.name] = value
                 if expected is not None and not self._equal(type_, value, expected):
                     step.violation = Violation(
@@ -972,6 +980,8 @@ class Oracle:
                 inst.values[var.name] = (
                     float(value) if type_ == "Real" else bool(value) if type_ == "Boolean" else value
                 )
+                if var.causality == "parameter" and not inst.has_model:
+                    inst.outputs = {}  # the outputs read in initializationMode are those of the parameters
             self._update_dubious(inst)
         return step
 

@@ -140,3 +140,48 @@ def test_a_state_with_derivatives_set_continues_bit_identically(fmus, tmp_path):
     inst.fmu.freeFMUstate(state)
     inst.close()
     other.close()
+
+
+def test_the_model_structure_lists_no_feedthrough_and_the_initial_unknowns_with_their_knowns(fmus):
+    """Outputs: no output depends on an input at the same communication point (both FMUs compute their
+    outputs in doStep); InitialUnknowns: the outputs with initial="calculated", each depending only on
+    knowns of initializationMode (variables with initial="exact"), the pendulum's angle on theta0."""
+    for fmu in fmus:
+        md = read_model_description(str(fmu))
+        outputs = {v for v in md.modelVariables if v.causality == "output"}
+        assert {u.variable for u in md.outputs} == outputs and all(u.dependencies == [] for u in md.outputs)
+        assert {u.variable for u in md.initialUnknowns} == {v for v in outputs if v.initial == "calculated"}
+        for unknown in md.initialUnknowns:
+            assert all(d.initial == "exact" and d.causality != "input" for d in unknown.dependencies)
+    md = read_model_description(str(fmus[0]))
+    theta = next(u for u in md.initialUnknowns if u.variable.name == "theta")
+    assert "theta0" in {d.name for d in theta.dependencies} and "torque" not in {d.name for d in theta.dependencies}
+
+
+@isolated
+def test_outputs_in_initialization_mode_are_those_of_the_parameters_set(fmus, tmp_path):
+    """The InitialUnknowns read in initializationMode: the initial state of the parameters set so far
+    (theta = theta0), following a parameter set after the read; a solver setting changes none of them
+    (bit for bit: it is not among their dependencies); exitInitializationMode starts from that state."""
+    from fmpy import extract
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(fmus[0]))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmus[0])), modelIdentifier="FemPendulum")
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    slave.setInteger([vr["model.fidelity"]], [2])
+    outputs = [vr[n] for n in ("theta", "omega", "gap", "energy.total", "energy.potential")]
+    slave.setReal([vr["theta0"]], [0.3])
+    at_03 = slave.getReal(outputs)
+    slave.setReal([vr["theta0"], vr["solver.max_step"]], [0.2, 5e-4])
+    at_02 = slave.getReal(outputs)
+    assert at_03[0] == 0.3 and at_02[0] == 0.2 and at_02[2] < at_03[2]  # closer to the wall
+    slave.setReal([vr["solver.max_step"]], [2e-3])
+    assert slave.getReal(outputs) == at_02
+    slave.exitInitializationMode()
+    assert slave.getReal(outputs) == at_02
+    slave.terminate()
+    slave.freeInstance()

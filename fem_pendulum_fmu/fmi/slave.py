@@ -30,7 +30,7 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variabil
 from pythonfmu.variables import Boolean, Integer, Real, String
 
 from ..physics.fidelity import PendulumModel, StepFailed, create
-from ..physics.protocol import SUMMARY_OUTPUTS, OutputDerivatives
+from ..physics.protocol import SUMMARY_OUTPUTS, OutputDerivatives, Outputs
 from ..physics.torque import Torque, TorqueProfile
 from . import interface as fmi_interface
 from .fmi_logging import LOG, FmiLogHandler, route_to, routed, unroute
@@ -66,6 +66,9 @@ class PendulumSlave(CheckedVariableAccess):
         # (t, h, torque, its derivatives) of the last discarded doStep
         self._discarded: tuple[float, float, float, tuple[float, float]] | None = None
         self.initialised = False  # a model is built (at exitInitializationMode, or from a restored state)
+        self.initialising = False  # in initializationMode: the outputs are those of the parameters set
+        # the model the outputs read in initializationMode come from, and the parameter values it was built with
+        self._preview: tuple[tuple, PendulumModel] | None = None
         self.stepping = False  # exitInitializationMode succeeded: parameters are fixed from now on
         self.terminated = False
         self.time = self.interface.start_time
@@ -121,7 +124,8 @@ class PendulumSlave(CheckedVariableAccess):
         return self.torque
 
     def _get_output(self, field: str) -> Any:
-        return getattr(self.outputs, field) if self.outputs is not None else 0
+        outputs = self.outputs if self.outputs is not None else self.initial_outputs()
+        return getattr(outputs, field) if outputs is not None else 0
 
     def _set_parameter(self, name: str, value: Any) -> None:
         if self.stepping or (self.initialised and value != self.values[name]):
@@ -137,6 +141,29 @@ class PendulumSlave(CheckedVariableAccess):
         # its derivatives stay: a master may set them before or after the value (docs/fmu.md)
 
     # -------------------------------------------------------------- life cycle
+    def enter_initialization_mode(self) -> None:
+        self.initialising = True
+
+    def initial_outputs(self) -> Outputs | None:
+        """In initializationMode, before a model exists: the outputs at the start of the model the
+        parameters set so far describe (the InitialUnknowns of the modelDescription), built at the first
+        read and again after a parameter changed; exitInitializationMode takes that model. Invalid
+        parameters: None after reporting them (the read answers fmi2Error)."""
+        if not self.initialising or self.model is not None:
+            return None
+        key = tuple(sorted(self.values.items()))
+        if self._preview is None or self._preview[0] != key:
+            with routed(self._handler):
+                try:
+                    model = create(scene_from_values(self.values, self.interface))
+                except (ValueError, KeyError) as exc:
+                    self._error(f"the outputs in initializationMode need valid parameters: {exc}")
+                    return None
+            self._preview = (key, model)
+        model = self._preview[1]
+        model.time = self.time
+        return model.outputs()
+
     def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
         if self.model is None:  # an instance started from an FMU state keeps the state's time
             self.time = float(start_time)
@@ -149,12 +176,16 @@ class PendulumSlave(CheckedVariableAccess):
     def exit_initialization_mode(self) -> None:
         self.init_error = None  # whatever an earlier, refused Exit found
         if self.model is not None:  # started from an FMU state (fmi2SetFMUstate after fmi2Instantiate)
-            self.stepping = True
+            self.stepping, self.initialising = True, False
             return
         t0 = time.perf_counter()
+        preview, self._preview = self._preview, None
         with routed(self._handler):
             try:
-                model = create(scene_from_values(self.values, self.interface))
+                if preview is not None and preview[0] == tuple(sorted(self.values.items())):
+                    model = preview[1]  # built for the outputs read in initializationMode, never advanced
+                else:
+                    model = create(scene_from_values(self.values, self.interface))
             except (ValueError, KeyError) as exc:
                 self.init_error = f"invalid parameters: {exc}"
                 self._error(self.init_error + " (correct them and call fmi2ExitInitializationMode again)")
@@ -165,7 +196,7 @@ class PendulumSlave(CheckedVariableAccess):
             if self.init_error is not None:  # the field output's folder: back to before the call
                 self.model, self.outputs, self.initialised = None, None, False
                 return
-            self.stepping = True
+            self.stepping, self.initialising = True, False
             self.init_seconds = time.perf_counter() - t0
             LOG.debug("initialised %s in %.3f s", type(model).__name__, self.init_seconds)
 
@@ -391,5 +422,6 @@ class PendulumSlave(CheckedVariableAccess):
         nothing."""
         self.model = None
         self.outputs = None
+        self._preview = None
         self.vtk = None
         self.forget_value_references()
