@@ -30,15 +30,19 @@ _EXPORTS = {
     "BodyField": "physics.protocol",
     "PendulumModel": "physics.protocol",
     "StepFailed": "physics.protocol",
+    "OutputDerivatives": "physics.protocol",
+    "TorqueProfile": "physics.torque",
 }
 __all__ = [
     "BodyField",
     "ModelState",
+    "OutputDerivatives",
     "Outputs",
     "PRESETS",
     "PendulumModel",
     "Scene",
     "StepFailed",
+    "TorqueProfile",
     "__version__",
     "compliant",
     "create",
@@ -49,8 +53,9 @@ __all__ = [
 
 if TYPE_CHECKING:
     from .physics.fidelity import create
-    from .physics.protocol import BodyField, ModelState, Outputs, PendulumModel, StepFailed
+    from .physics.protocol import BodyField, ModelState, OutputDerivatives, Outputs, PendulumModel, StepFailed
     from .physics.scene import PRESETS, Scene, compliant, problems, stiff, validate
+    from .physics.torque import TorqueProfile
 
 
 def __getattr__(name: str) -> Any:

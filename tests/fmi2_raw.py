@@ -213,20 +213,24 @@ class Instance:
                 values[name] = value.hex() if kind == "Real" else repr(value)
         return worst, values
 
-    # ------------------------------------------------------- derivatives (none)
+    # ------------------------------------------------------------- derivatives
     def directional_derivative(self, unknown: list[int], known: list[int]) -> int:
         seed, out = _reals([1.0] * len(known)), _reals([0.0] * len(unknown))
         return self.f["fmi2GetDirectionalDerivative"](
             self.c, _vrs(unknown), len(unknown), _vrs(known), len(known), seed, out
         )
 
-    def set_input_derivatives(self, vrs: list[int]) -> int:
-        order = (c_int * len(vrs))(*[1] * len(vrs))
-        return self.f["fmi2SetRealInputDerivatives"](self.c, _vrs(vrs), len(vrs), order, _reals([1.0] * len(vrs)))
+    def set_input_derivatives(self, vrs: list[int], value: float = 0.0, order: int = 1) -> int:
+        """fmi2SetRealInputDerivatives of `order` of each of `vrs` to `value` (0: the run does not change)."""
+        orders = (c_int * len(vrs))(*[order] * len(vrs))
+        return self.f["fmi2SetRealInputDerivatives"](self.c, _vrs(vrs), len(vrs), orders, _reals([value] * len(vrs)))
 
-    def get_output_derivatives(self, vrs: list[int]) -> int:
-        order = (c_int * len(vrs))(*[1] * len(vrs))
-        return self.f["fmi2GetRealOutputDerivatives"](self.c, _vrs(vrs), len(vrs), order, _reals([0.0] * len(vrs)))
+    def get_output_derivatives(self, vrs: list[int], order: int = 1) -> tuple[int, list[float]]:
+        """fmi2GetRealOutputDerivatives of `order` of each of `vrs`: the status and the values."""
+        orders = (c_int * len(vrs))(*[order] * len(vrs))
+        values = _reals([0.0] * len(vrs))
+        status = self.f["fmi2GetRealOutputDerivatives"](self.c, _vrs(vrs), len(vrs), orders, values)
+        return status, list(values)[: len(vrs)]
 
     # ------------------------------------------------------------------- status
     def status(self, kind: str, which: int, null: bool = False) -> tuple[int, object]:

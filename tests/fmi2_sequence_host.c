@@ -20,7 +20,9 @@
  *   setreal|setint|setbool|setstring K N VR... VALUE...
  *   dostep K T H NOSET
  *   status|realstatus|intstatus|boolstatus|stringstatus K KIND NULLVALUE   -> "<status> <value>"
- *   dirderiv K | setinder K | getoutder K
+ *   dirderiv K
+ *   setinder K N VR... ORDER... VALUE...  fmi2SetRealInputDerivatives -> "<status>"
+ *   getoutder K N VR... ORDER...          fmi2GetRealOutputDerivatives -> "<status> <value>..."
  *   getstate K J                     fmi2GetFMUstate(c, &slot[J])         -> "<status> <slot J after>"
  *   setstate K J                     fmi2SetFMUstate(c, slot[J])
  *   freestate K J MODE               MODE addr: &slot[J]; value: slot[J] itself where its address is due;
@@ -422,16 +424,28 @@ static int execute(int argc, char **argv) {
         fmi2ValueReference u[1] = {0}, z[1] = {1};
         fmi2Real dv[1] = {1.0}, dz[1] = {0.0};
         s = f->fmi2GetDirectionalDerivative(c, z, 1, u, 1, dv, dz);
-    } else if (strcmp(cmd, "setinder") == 0) {
-        fmi2ValueReference vr[1] = {0};
-        fmi2Integer order[1] = {1};
-        fmi2Real value[1] = {0.5};
-        s = f->fmi2SetRealInputDerivatives(c, vr, 1, order, value);
-    } else if (strcmp(cmd, "getoutder") == 0) {
-        fmi2ValueReference vr[1] = {1};
-        fmi2Integer order[1] = {1};
-        fmi2Real value[1] = {0.0};
-        s = f->fmi2GetRealOutputDerivatives(c, vr, 1, order, value);
+    } else if ((strcmp(cmd, "setinder") == 0 || strcmp(cmd, "getoutder") == 0) && argc >= 3) {
+        int n = atoi(argv[2]), setting = cmd[0] == 's';
+        if (n < 0 || n > 64 || argc != 3 + (setting ? 3 : 2) * n) {
+            out("badcmd");
+            return 1;
+        }
+        fmi2ValueReference vr[64];
+        fmi2Integer order[64];
+        fmi2Real value[64];
+        for (int i = 0; i < n; i++) {
+            vr[i] = (fmi2ValueReference)strtoul(argv[3 + i], NULL, 10);
+            order[i] = (fmi2Integer)strtol(argv[3 + n + i], NULL, 10);
+            value[i] = setting ? strtod(argv[3 + 2 * n + i], NULL) : 0.0;
+        }
+        if (setting) {
+            s = f->fmi2SetRealInputDerivatives(c, vr, (size_t)n, order, value);
+        } else {
+            s = f->fmi2GetRealOutputDerivatives(c, vr, (size_t)n, order, value);
+            out("%d", (int)s);
+            for (int i = 0; i < n && s <= fmi2Warning; i++) out(" %.17g", value[i]);
+            return 1;
+        }
     } else if (argc >= 3 && in_range(atoi(argv[2]), N_STATES) &&
                (strcmp(cmd, "getstate") == 0 || strcmp(cmd, "setstate") == 0 || strcmp(cmd, "freestate") == 0 ||
                 strcmp(cmd, "size") == 0 || strcmp(cmd, "serialize") == 0 || strcmp(cmd, "deser") == 0)) {

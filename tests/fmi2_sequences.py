@@ -27,7 +27,14 @@ model as before it):
   state functions in every state; Get* in every state but instantiated; Set* in every state but
   terminated (in stepComplete only inputs; a parameter fmi2Error whatever its value); the status
   functions in stepComplete and terminated; the functions the FMUs do not provide
-  (getDirectionalDerivative, set/getReal*Derivatives, cancelStep) always fmi2Error.
+  (getDirectionalDerivative, cancelStep) always fmi2Error.
+- setRealInputDerivatives, where the FMU declares canInterpolateInputs, where fmi2SetReal of an input
+  is allowed (instantiated, initializationMode, stepComplete), of continuous Real inputs, orders 1 and
+  2, finite values; getRealOutputDerivatives, up to maxOutputDerivativeOrder, in stepComplete and
+  terminated, of continuous Real outputs that are not per-step summaries (gap_min, contact_force_max,
+  contact_impulse), theta's first derivative the omega output; else fmi2Error. An FMU that declares
+  neither refuses them in every state. Derivatives set are the next successful doStep's (it clears
+  them), part of an FMU state, and enter the same-step key of a repeated Discard.
 - A refused call answers fmi2Error and changes nothing (a refusal by the state table logs a message
   naming the call and the state); fmi2Fatal is never an answer.
 - fmi2Instantiate returns NULL for another GUID (the message names both), another fmuType, no callbacks
@@ -105,10 +112,11 @@ BAD_STATUS_KIND = 99
 CHECKED_OUTPUTS = {"pendulum": ("theta", "omega", "energy.total", "gap"), "pid": ("u",)}
 NOT_PROVIDED = {
     "dirderiv": "fmi2GetDirectionalDerivative",
-    "setinder": "fmi2SetRealInputDerivatives",
-    "getoutder": "fmi2GetRealOutputDerivatives",
     "cancel": "fmi2CancelStep",
 }
+DERIVATIVE_CALLS = {"setinder": "fmi2SetRealInputDerivatives", "getoutder": "fmi2GetRealOutputDerivatives"}
+# per-step summaries: Real outputs without a time derivative (the slave says why)
+SUMMARIES = ("gap_min", "contact_force_max", "contact_impulse")
 STATUS_FUNCTIONS = {
     "status": "fmi2GetStatus",
     "realstatus": "fmi2GetRealStatus",
@@ -127,6 +135,7 @@ FMI_NAMES = {
     "set": "fmi2Set",
     **STATUS_FUNCTIONS,
     **NOT_PROVIDED,
+    **DERIVATIVE_CALLS,
 }
 
 
@@ -138,6 +147,14 @@ class Variable:
     type: str  # Real, Integer (Enumerations too: they are read and written as Integer), Boolean, String
     causality: str
     start: Any
+    variability: str = "continuous"
+
+    @property
+    def derivable(self) -> str | None:
+        """ "input" / "output" for a continuous Real input / output (what has time derivatives), else None."""
+        if self.type != "Real" or self.variability != "continuous" or self.causality not in ("input", "output"):
+            return None
+        return self.causality
 
 
 @dataclass(frozen=True)
@@ -153,6 +170,8 @@ class FmuInfo:
     can_states: bool
     categories: tuple[str, ...]
     start_time: float
+    input_order: int = 0  # the highest input derivative order it takes (2 if canInterpolateInputs, else 0)
+    output_order: int = 0  # maxOutputDerivativeOrder
 
     def vr(self, name: str) -> int:
         return self.variables[name].vr
@@ -187,7 +206,9 @@ def load_fmu(path: Path, lib: int, folder: Path) -> FmuInfo:
     variables = {}
     for v in md.modelVariables:
         type_ = "Integer" if v.type == "Enumeration" else v.type
-        variables[v.name] = Variable(v.name, v.valueReference, type_, v.causality, _start_value(type_, v.start))
+        variables[v.name] = Variable(
+            v.name, v.valueReference, type_, v.causality, _start_value(type_, v.start), v.variability
+        )
     cs = md.coSimulation
     start = md.defaultExperiment.startTime if md.defaultExperiment and md.defaultExperiment.startTime else 0.0
     return FmuInfo(
@@ -200,6 +221,8 @@ def load_fmu(path: Path, lib: int, folder: Path) -> FmuInfo:
         can_states=bool(cs.canGetAndSetFMUstate),
         categories=tuple(c.name for c in getattr(md, "logCategories", []) or []),
         start_time=float(start),
+        input_order=2 if cs.canInterpolateInputs else 0,
+        output_order=int(cs.maxOutputDerivativeOrder or 0),
     )
 
 
@@ -424,6 +447,7 @@ class Snapshot:
     time: float | None
     outputs: dict[str, Any]
     dubious: bool
+    rates: dict[tuple[str, int], float] = field(default_factory=dict)
 
 
 @dataclass
@@ -442,6 +466,7 @@ class Instance:
     after_discard: bool = False
     discarded: tuple | None = None  # (t, h, torque) of the last doStep, if it was discarded
     stuck: bool = False  # the same step was discarded twice running: fmi2Terminated is true
+    rates: dict[tuple[str, int], float] = field(default_factory=dict)  # input derivatives for the next doStep
 
     def fresh(self) -> None:
         self.state, self.has_model, self.values = INSTANTIATED, False, self.fmu.start_values()
@@ -452,10 +477,12 @@ class Instance:
             False,
             False,
         )
-        self.discarded, self.stuck = None, False
+        self.discarded, self.stuck, self.rates = None, False, {}
 
     def snapshot(self) -> Snapshot:
-        return Snapshot(self.has_model, dict(self.values), self.time, dict(self.outputs), self.dubious)
+        return Snapshot(
+            self.has_model, dict(self.values), self.time, dict(self.outputs), self.dubious, dict(self.rates)
+        )
 
 
 @dataclass
@@ -789,7 +816,70 @@ class Oracle:
         step, _ = self._simple(call, send, f"{call.op} {call.k}", REFUSED, why, "")
         return step
 
-    _dirderiv = _setinder = _getoutder = _cancel = _not_provided
+    _dirderiv = _cancel = _not_provided
+
+    # ---------------------------------------------------------------- input and output derivatives
+    def _derivative_rule(self, inst: Instance, call: Call) -> tuple[frozenset, str, str | None]:
+        """(allowed statuses, why, the log's table argument for _simple) of a derivative call."""
+        setting = call.op == "setinder"
+        name, vrs, orders = DERIVATIVE_CALLS[call.op], call.args[0], call.args[1]
+        limit = inst.fmu.input_order if setting else inst.fmu.output_order
+        states = (INSTANTIATED, INIT, STEP) if setting else (STEP, TERMINATED)
+        if limit == 0:
+            return REFUSED, f"{name} is not provided by {inst.fmu.identifier}", ""
+        if inst.state not in states:
+            return REFUSED, f"{name} is not allowed in {inst.state}", inst.state
+        role = "input" if setting else "output"
+        for k, (vr, order) in enumerate(zip(vrs, orders, strict=True)):
+            var = inst.fmu.by_vr(vr)
+            if var is None or var.derivable != role:
+                return REFUSED, f"{name} of value reference {vr}, not a continuous Real {role}", ""
+            if not 1 <= order <= limit:
+                return REFUSED, f"{name} of order {order} (allowed 1 to {limit})", ""
+            if setting and not math.isfinite(call.args[2][k]):
+                return REFUSED, f"{name} with the value {call.args[2][k]!r}", ""
+            if not setting and var.name in SUMMARIES:
+                return REFUSED, f"{name} of {var.name}, a per-step summary", ""
+        if not setting and inst.fmu.kind == "pendulum" and not math.isfinite(inst.values["torque"]):
+            return REFUSED, f"{name} with the torque {inst.values['torque']!r}", None
+        if setting or inst.dubious:
+            return (SUCCESS if setting else ANY), f"{name} of {len(vrs)} derivatives in {inst.state}", None
+        probes = inst.fmu.kind == "pendulum" and effective_fidelity(inst.values) not in (RIGID, 3)
+        # the fem model probes three short steps of its scheme, which solver.max_substeps may refuse
+        return (SUCCESS | REFUSED if probes else SUCCESS), f"{name} in {inst.state}", None
+
+    def _setinder(self, call: Call, send: Callable) -> Step:
+        inst = self.instances[call.k]
+        vrs, orders, values = call.args
+        line = f"setinder {call.k} {len(vrs)} " + " ".join([*map(str, vrs), *map(str, orders), *map(fmt_real, values)])
+        allowed, why, table = self._derivative_rule(inst, call)
+        step, status = self._simple(call, send, line.rstrip(), allowed, why, table)
+        if allowed == SUCCESS and status in SUCCESS:
+            for vr, order, value in zip(vrs, orders, values, strict=True):
+                inst.rates[(inst.fmu.by_vr(vr).name, order)] = float(value)  # type: ignore[union-attr]
+            self.stats["input derivatives set"] += 1
+        return step
+
+    def _getoutder(self, call: Call, send: Callable) -> Step:
+        inst = self.instances[call.k]
+        vrs, orders = call.args
+        line = f"getoutder {call.k} {len(vrs)} " + " ".join([*map(str, vrs), *map(str, orders)])
+        allowed, why, table = self._derivative_rule(inst, call)
+        step, status = self._simple(call, send, line.rstrip(), allowed, why, table)
+        if step.violation is None and status in SUCCESS and allowed != REFUSED:
+            values = [float(x) for x in step.answer.split()[1:]]
+            if len(values) != len(vrs):
+                step.violation = Violation("wrong-answer", f"{len(values)} values for {len(vrs)} derivatives")
+                return step
+            omega = inst.outputs.get("omega")
+            for vr, order, value in zip(vrs, orders, values, strict=True):
+                var = inst.fmu.by_vr(vr)
+                if var is not None and var.name == "theta" and order == 1 and omega is not None and not inst.dubious:
+                    if not same_float(value, omega):
+                        step.violation = Violation("wrong-answer", f"theta' = {value!r}, the omega output is {omega!r}")
+                        return step
+            self.stats["output derivatives read"] += 1
+        return step
 
     # ---------------------------------------------------------------- values
     def _get(self, call: Call, send: Callable) -> Step:
@@ -800,10 +890,18 @@ class Oracle:
         variables = [inst.fmu.by_vr(vr) for vr in vrs]
         bad = [vr for vr, v in zip(vrs, variables, strict=True) if v is None or v.type != type_]
         ok, why = self._state_rule(inst, (INIT, STEP, TERMINATED), name)
+        # in initializationMode the pendulum's outputs are those of the model its parameters describe
+        previewed = inst.fmu.kind == "pendulum" and inst.state == INIT and not inst.has_model
+        validity = parameter_validity(inst.fmu, inst.values) if previewed else "valid"
+        outputs = any(v is not None and v.causality == "output" for v in variables)
         if not ok:
             allowed = REFUSED
         elif bad:
             allowed, why = REFUSED, f"{name} of value reference {bad[0]}, not a {type_} variable"
+        elif outputs and validity == "invalid":
+            allowed, why = REFUSED, f"{name} of outputs in initializationMode with invalid parameters"
+        elif outputs and validity == "dubious":
+            allowed, why = frozenset({OK, WARNING, ERROR}), f"{name} of outputs in initializationMode, NaN parameters"
         else:
             allowed, why = SUCCESS, f"{name} in {inst.state}"
         step, status = self._simple(call, send, line.rstrip(), allowed, why, None if ok else inst.state)
@@ -820,7 +918,7 @@ class Oracle:
                     expected = inst.values[var.name]
                 elif var.name in inst.outputs and not inst.dubious:
                     expected = inst.outputs[var.name]
-                elif var.name in CHECKED_OUTPUTS[inst.fmu.kind] and not inst.dubious:
+                elif var.name in CHECKED_OUTPUTS[inst.fmu.kind] and not inst.dubious and validity == "valid":
                     inst.outputs[var.name] = value
                 if expected is not None and not self._equal(type_, value, expected):
                     step.violation = Violation(
@@ -882,6 +980,8 @@ class Oracle:
                 inst.values[var.name] = (
                     float(value) if type_ == "Real" else bool(value) if type_ == "Boolean" else value
                 )
+                if var.causality == "parameter" and not inst.has_model:
+                    inst.outputs = {}  # the outputs read in initializationMode are those of the parameters
             self._update_dubious(inst)
         return step
 
@@ -933,9 +1033,10 @@ class Oracle:
             self.stats["step"] += 1
             if inst.after_discard:
                 self.stats["retry after a discard"] += 1
-            inst.after_discard, inst.discarded, inst.stuck = False, None, False
+            inst.after_discard, inst.discarded, inst.stuck, inst.rates = False, None, False, {}
         elif allowed != REFUSED and status == DISCARD:
-            key = (t, h, inst.values.get("torque"))
+            rates = tuple(sorted((name, value) for name, value in inst.rates.items() if value != 0.0))
+            key = (t, h, inst.values.get("torque"), rates)
             inst.stuck, inst.discarded = inst.discarded == key, key
             inst.after_discard = True
             self.stats["discard"] += 1
@@ -1091,10 +1192,12 @@ class Oracle:
                 inst.lenient = True
             elif snap.has_model:
                 inst.has_model, inst.values, inst.time = True, dict(snap.values), snap.time
+                inst.rates = dict(snap.rates)
                 inst.outputs, inst.dubious = dict(snap.outputs), snap.dubious
                 self.stats["restore into an instance without a model" if kind == "build" else "restore"] += 1
             else:  # a state taken before initialisation: its parameters, inputs and time
                 inst.values, inst.outputs, inst.time = dict(snap.values), {}, snap.time
+                inst.rates = dict(snap.rates)
                 self.stats["restore of a state without a model"] += 1
             inst.after_discard, inst.discarded, inst.stuck = False, None, False
         return step
@@ -1397,6 +1500,53 @@ class Generator:
         v = round(rng.uniform(-3.0, 3.0), 6) if value is None else value
         return Call("set", inst.slot, ("Real", (fmu.vr("torque"),), (v,)))
 
+    def _input_derivatives(self, inst: Instance, bad: bool = False) -> Call:
+        """setRealInputDerivatives of the FMU's inputs (orders 1 and 2, finite values), or with `bad` one
+        wrong reference, order or value."""
+        rng, fmu = self.rng, inst.fmu
+        inputs = [v.vr for v in fmu.variables.values() if v.derivable == "input"]
+        vrs = rng.sample(inputs, rng.randint(1, len(inputs)))
+        orders = [rng.choice([1, 2]) for _ in vrs]
+        values = [round(rng.uniform(-50.0, 50.0), 4) for _ in vrs]
+        if rng.random() < 0.3 and len(vrs) == 1:  # both orders of one input
+            vrs, orders, values = vrs * 2, [1, 2], [values[0], round(rng.uniform(-500.0, 500.0), 3)]
+        if bad:
+            i, kind = rng.randrange(len(vrs)), rng.choice(["output", "parameter", "order", "value", "none"])
+            others = [v.vr for v in fmu.variables.values() if (v.causality == "output") == (kind == "output")]
+            if kind in ("output", "parameter"):
+                vrs[i] = rng.choice([vr for vr in others if vr not in inputs])
+            elif kind == "order":
+                orders[i] = rng.choice([0, 3, -1])
+            elif kind == "value":
+                values[i] = rng.choice([math.nan, math.inf])
+            else:
+                vrs[i] = 999
+        return Call("setinder", inst.slot, (tuple(vrs), tuple(orders), tuple(values)))
+
+    def _output_derivatives(self, inst: Instance, bad: bool = False) -> Call:
+        """getRealOutputDerivatives of some continuous outputs (orders 1 and 2), or with `bad` a summary,
+        an input, order 3 or an unknown reference among them."""
+        rng, fmu = self.rng, inst.fmu
+        outputs = [v.vr for v in fmu.variables.values() if v.derivable == "output" and v.name not in SUMMARIES]
+        if fmu.kind == "pendulum" and rng.random() < 0.5:
+            vrs = [fmu.vr("theta")] + rng.sample(outputs, rng.randint(0, 3))
+        else:
+            vrs = rng.sample(outputs, rng.randint(1, min(4, len(outputs))))
+        orders = [rng.choice([1, 2]) for _ in vrs]
+        if bad:
+            i = rng.randrange(len(vrs))
+            summaries = [fmu.vr(n) for n in SUMMARIES if n in fmu.variables]
+            choice = rng.choice(["summary", "input", "order", "none"] if summaries else ["input", "order", "none"])
+            if choice == "summary":
+                vrs[i] = rng.choice(summaries)
+            elif choice == "input":
+                vrs[i] = next(v.vr for v in fmu.variables.values() if v.causality == "input")
+            elif choice == "order":
+                orders[i] = rng.choice([0, 3])
+            else:
+                vrs[i] = 999
+        return Call("getoutder", inst.slot, (tuple(vrs), tuple(orders)))
+
     def _get(self, inst: Instance) -> Call:
         rng, fmu = self.rng, inst.fmu
         r = rng.random()
@@ -1507,6 +1657,7 @@ class Generator:
                 (2.0 if states_ok else 0.0, lambda: self._state_call(oracle, inst)),
                 (0.3, lambda: Call("debug", k, (rng.randint(0, 1), self._categories(inst)))),
                 (0.2, lambda: Call("reset", k)),
+                (0.4, lambda: self._input_derivatives(inst)),
             ]
         elif inst.state == INIT:
             validity = parameter_validity(inst.fmu, inst.values)
@@ -1525,6 +1676,7 @@ class Generator:
                 (1.5, lambda: self._get(inst)),
                 (1.5 if states_ok else 0.0, lambda: self._state_call(oracle, inst)),
                 (0.2, lambda: Call("reset", k)),
+                (0.4, lambda: self._input_derivatives(inst)),
             ]
         elif inst.state == STEP:
             torque_nan = inst.fmu.kind == "pendulum" and not math.isfinite(inst.values["torque"])
@@ -1537,6 +1689,8 @@ class Generator:
                 (4.0 if torque_nan or pid_nan else 0.0, lambda: self._input_set(inst)),
                 (4.0, lambda: self._get(inst)),
                 (2.0, lambda: self._input_set(inst)),
+                (2.0, lambda: self._input_derivatives(inst)),
+                (1.5, lambda: self._output_derivatives(inst)),
                 (5.0 if states_ok else 0.0, lambda: self._state_call(oracle, inst)),
                 (2.5, lambda: self._status(inst, legal=True)),
                 (0.4, lambda: Call("terminate", k)),
@@ -1547,6 +1701,7 @@ class Generator:
         else:  # terminated
             options = [
                 (2.0, lambda: self._get(inst)),
+                (0.7, lambda: self._output_derivatives(inst)),
                 (2.0, lambda: self._status(inst, legal=True)),
                 (1.5 if states_ok else 0.0, lambda: self._state_call(oracle, inst)),
                 (2.0, lambda: Call("reset", k)),
@@ -1592,6 +1747,8 @@ class Generator:
             (1.5 if inst.state == STEP else 0.2, lambda: self._bad_step(inst)),
             (1.0, lambda: self._status(inst, legal=False)),
             (0.5, lambda: Call(rng.choice(list(NOT_PROVIDED)), k)),
+            (0.8, lambda: self._input_derivatives(inst, bad=True)),
+            (0.8, lambda: self._output_derivatives(inst, bad=True)),
             (3.0 if fmu.can_states else 1.0, lambda: self._bad_state(oracle, inst)),
             (0.3, lambda: Call("debug", k, (1, ("noSuchCategory",)))),
         ]
@@ -1611,7 +1768,9 @@ class Generator:
         if s in (INSTANTIATED, INIT):
             calls += [Call("realstatus", k, (2, 0)), Call("boolstatus", k, (3, 0)), Call("status", k, (0, 0))]
         if s == TERMINATED:
-            calls.append(self._input_set(inst))
+            calls += [self._input_set(inst), self._input_derivatives(inst)]
+        if s in (INSTANTIATED, INIT):
+            calls.append(self._output_derivatives(inst))
         return calls
 
     def _bad_get(self, inst: Instance) -> Call:

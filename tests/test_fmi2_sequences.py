@@ -450,8 +450,12 @@ def test_the_pid_refuses_what_the_contract_refuses(d):
     for t, h in (("0.0", "nan"), ("0.0", "inf"), ("0.0", "0.0"), ("0.0", "-0.001"), ("nan", "0.001"), ("0.5", "0.01")):
         assert d.status(f"dostep 0 {t} {h} 1") == ERROR, (t, h, d.log)
     assert d.status("dostep 0 0.0 0.01 1") == OK
-    assert d.state("getstate 0 0") == (ERROR, 0)  # canGetAndSetFMUstate="false"
-    assert d.state("freestate 0 0 null")[0] == ERROR and d.send("size 0 0 0")[0] == "3"
+    status, state = d.state("getstate 0 0")  # its own states it takes; nothing a state is not
+    assert status == OK and state != 0
+    assert d.send("size 0 1 0")[0] == "3" and d.state("freestate 0 1 null")[0] == OK  # an empty slot; NULL: nothing
+    assert d.status(f"setinder 0 1 {u} 1 0.5") == ERROR  # an output
+    assert d.status(f"setinder 0 1 {d.vr('setpoint', 'pid')} 3 0.5") == ERROR  # order 3
+    assert d.send(f"getoutder 0 1 {kp} 1")[0] == "3"  # a parameter
 
 
 def test_the_time_after_restoring_a_state_taken_before_initialisation(d):

@@ -2,8 +2,9 @@
 
 The FMU's binary (shim/fmi2_states.c) holds the Python object between the
 calls and frames the bytes in its own header (format, version, GUID, time);
-the bytes here are its payload: an .npz of the head (torque, parameter
-values, whether initialised, time) as JSON and the model's own state bytes.
+the bytes here are its payload: an .npz of the head (torque and its
+derivatives, parameter values, whether initialised, time) as JSON and the
+model's own state bytes.
 """
 
 from __future__ import annotations
@@ -18,21 +19,25 @@ import numpy as np
 from ..physics.protocol import ModelState
 
 _HEAD_KEYS = ("torque", "values", "initialised", "time")
+_RATES_KEY = "torque_rates"  # absent from states of versions without input derivatives: none set
 
 
 @dataclass(frozen=True)
 class FmuState:
     """model: the model's state, None for a state taken before initialisation. values: the parameter
-    values. time: the communication time, before initialisation the start time."""
+    values. time: the communication time, before initialisation the start time. torque_rates: the
+    torque's first and second time derivative set for the next doStep."""
 
     model: ModelState | None
     torque: float
     values: dict[str, Any]
     initialised: bool
     time: float
+    torque_rates: tuple[float, float] = (0.0, 0.0)
 
     def to_bytes(self) -> bytes:
         head = {"torque": self.torque, "values": self.values, "initialised": self.initialised, "time": self.time}
+        head[_RATES_KEY] = list(self.torque_rates)
         model = self.model.to_bytes() if self.model is not None else b""
         buf = io.BytesIO()
         np.savez(
@@ -54,13 +59,23 @@ class FmuState:
             raise ValueError(
                 f"the bytes are not a serialised state of this FMU ({type(exc).__name__}: {exc})"
             ) from None
-        if not isinstance(head, dict) or set(head) != set(_HEAD_KEYS):
+        if not isinstance(head, dict) or set(head) - {_RATES_KEY} != set(_HEAD_KEYS):
             raise ValueError("its contents are not those of a state of this FMU")
-        if not isinstance(head["values"], dict) or not all(
-            isinstance(head[k], (int, float)) for k in ("torque", "time")
+        rates = head.get(_RATES_KEY, [0.0, 0.0])
+        if (
+            not isinstance(head["values"], dict)
+            or not all(isinstance(head[k], (int, float)) for k in ("torque", "time"))
+            or not (isinstance(rates, list) and len(rates) == 2 and all(isinstance(r, (int, float)) for r in rates))
         ):
-            raise ValueError("its parameter values, torque or time are malformed")
-        return FmuState(state, float(head["torque"]), head["values"], bool(head["initialised"]), float(head["time"]))
+            raise ValueError("its parameter values, torque, torque derivatives or time are malformed")
+        return FmuState(
+            state,
+            float(head["torque"]),
+            head["values"],
+            bool(head["initialised"]),
+            float(head["time"]),
+            (float(rates[0]), float(rates[1])),
+        )
 
     def mismatch(self, values: dict[str, Any], initialised: bool) -> str | None:
         """Why an instance with parameter `values`, initialised or not, cannot take this state, or None.

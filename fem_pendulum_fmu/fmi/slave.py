@@ -10,6 +10,11 @@ checks doStep's torque and step (physics/protocol.py: a ValueError, state
 unchanged), which the slave answers the same way; a step the model cannot
 complete (StepFailed) answers fmi2Discard. The FMU's entry script subclasses
 `PendulumSlave` (see femp_slave_entry.py).
+
+Input derivatives of the torque (fmi2SetRealInputDerivatives) make the next doStep's torque a
+polynomial (physics/torque.py) and are cleared by that doStep once it succeeds; output derivatives
+(fmi2GetRealOutputDerivatives) are the model's (PendulumModel.output_derivatives), asked for once per
+communication point and input. docs/fmu.md, "Input interpolation and output derivatives".
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variabil
 from pythonfmu.variables import Boolean, Integer, Real, String
 
 from ..physics.fidelity import PendulumModel, StepFailed, create
+from ..physics.protocol import SUMMARY_OUTPUTS, OutputDerivatives, Outputs
+from ..physics.torque import Torque, TorqueProfile
 from . import interface as fmi_interface
 from .fmi_logging import LOG, FmiLogHandler, route_to, routed, unroute
 from .fmu_state import FmuState
@@ -34,6 +41,7 @@ from .vtk_output import VtkSeries
 
 _PY_TYPES = {"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean": Boolean, "String": String}
 _TIME_TOL = 1e-9
+NO_RATES = (0.0, 0.0)  # the torque's first and second time derivative when the master gave none
 
 
 class PendulumSlave(CheckedVariableAccess):
@@ -47,14 +55,20 @@ class PendulumSlave(CheckedVariableAccess):
         self.interface = fmi_interface.load(self.resources)
         self.values: dict[str, Any] = {}
         self.torque = 0.0
+        self.torque_rates = NO_RATES  # d/dt and d2/dt2 of the torque at the communication point, for the next doStep
+        self._derivatives: tuple[tuple, OutputDerivatives] | None = None  # the last answer, and what it was for
         self.model: PendulumModel | None = None
         self.init_error: str | None = None
         self.broken: str | None = None  # set when the model raised something it does not promise
         # the last doStep was discarded and a shorter one from this state cannot succeed: the binary
         # answers fmi2Terminated = true, so that a master ends the run (or restores an earlier state)
         self.cannot_continue = False
-        self._discarded: tuple[float, float, float] | None = None  # (t, h, torque) of the last discarded doStep
+        # (t, h, torque, its derivatives) of the last discarded doStep
+        self._discarded: tuple[float, float, float, tuple[float, float]] | None = None
         self.initialised = False  # a model is built (at exitInitializationMode, or from a restored state)
+        self.initialising = False  # in initializationMode: the outputs are those of the parameters set
+        # the model the outputs read in initializationMode come from, and the parameter values it was built with
+        self._preview: tuple[tuple, PendulumModel] | None = None
         self.stepping = False  # exitInitializationMode succeeded: parameters are fixed from now on
         self.terminated = False
         self.time = self.interface.start_time
@@ -110,7 +124,8 @@ class PendulumSlave(CheckedVariableAccess):
         return self.torque
 
     def _get_output(self, field: str) -> Any:
-        return getattr(self.outputs, field) if self.outputs is not None else 0
+        outputs = self.outputs if self.outputs is not None else self.initial_outputs()
+        return getattr(outputs, field) if outputs is not None else 0
 
     def _set_parameter(self, name: str, value: Any) -> None:
         if self.stepping or (self.initialised and value != self.values[name]):
@@ -123,8 +138,32 @@ class PendulumSlave(CheckedVariableAccess):
 
     def _set_torque(self, value: float) -> None:
         self.torque = float(value)  # the model checks it at doStep, which then answers fmi2Error
+        # its derivatives stay: a master may set them before or after the value (docs/fmu.md)
 
     # -------------------------------------------------------------- life cycle
+    def enter_initialization_mode(self) -> None:
+        self.initialising = True
+
+    def initial_outputs(self) -> Outputs | None:
+        """In initializationMode, before a model exists: the outputs at the start of the model the
+        parameters set so far describe (the InitialUnknowns of the modelDescription), built at the first
+        read and again after a parameter changed; exitInitializationMode takes that model. Invalid
+        parameters: None after reporting them (the read answers fmi2Error)."""
+        if not self.initialising or self.model is not None:
+            return None
+        key = tuple(sorted(self.values.items()))
+        if self._preview is None or self._preview[0] != key:
+            with routed(self._handler):
+                try:
+                    model = create(scene_from_values(self.values, self.interface))
+                except (ValueError, KeyError) as exc:
+                    self._error(f"the outputs in initializationMode need valid parameters: {exc}")
+                    return None
+            self._preview = (key, model)
+        model = self._preview[1]
+        model.time = self.time
+        return model.outputs()
+
     def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
         if self.model is None:  # an instance started from an FMU state keeps the state's time
             self.time = float(start_time)
@@ -137,12 +176,16 @@ class PendulumSlave(CheckedVariableAccess):
     def exit_initialization_mode(self) -> None:
         self.init_error = None  # whatever an earlier, refused Exit found
         if self.model is not None:  # started from an FMU state (fmi2SetFMUstate after fmi2Instantiate)
-            self.stepping = True
+            self.stepping, self.initialising = True, False
             return
         t0 = time.perf_counter()
+        preview, self._preview = self._preview, None
         with routed(self._handler):
             try:
-                model = create(scene_from_values(self.values, self.interface))
+                if preview is not None and preview[0] == tuple(sorted(self.values.items())):
+                    model = preview[1]  # built for the outputs read in initializationMode, never advanced
+                else:
+                    model = create(scene_from_values(self.values, self.interface))
             except (ValueError, KeyError) as exc:
                 self.init_error = f"invalid parameters: {exc}"
                 self._error(self.init_error + " (correct them and call fmi2ExitInitializationMode again)")
@@ -153,7 +196,7 @@ class PendulumSlave(CheckedVariableAccess):
             if self.init_error is not None:  # the field output's folder: back to before the call
                 self.model, self.outputs, self.initialised = None, None, False
                 return
-            self.stepping = True
+            self.stepping, self.initialising = True, False
             self.init_seconds = time.perf_counter() - t0
             LOG.debug("initialised %s in %.3f s", type(model).__name__, self.init_seconds)
 
@@ -179,8 +222,8 @@ class PendulumSlave(CheckedVariableAccess):
         route_to(self._handler)  # as routed(), without a generator's cost at every step
         self.cannot_continue = False
         try:
-            self.outputs = model.advance(current_time + step_size, self.torque)
-            self._discarded = None
+            self.outputs = model.advance(current_time + step_size, self.step_torque())
+            self._discarded, self.torque_rates, self._derivatives = None, NO_RATES, None
             if self.vtk is not None and self.vtk.due(model.time):
                 self._write_frame()
         except StepFailed as exc:
@@ -202,7 +245,7 @@ class PendulumSlave(CheckedVariableAccess):
         """Set `cannot_continue` for a discarded doStep and say why it was discarded: true when no
         shorter step can help, or when the same step (time, size, torque) was just discarded: the model
         is deterministic, so a master that repeats it unchanged would repeat the Discard for ever."""
-        step = (t, h, self.torque)
+        step = (t, h, self.torque, self.torque_rates)
         repeated, self._discarded = self._discarded == step, step
         self.cannot_continue = repeated or not exc.shorter_step_helps
         advice = ""
@@ -217,6 +260,70 @@ class PendulumSlave(CheckedVariableAccess):
 
     def terminate(self) -> None:
         self.terminated = True
+
+    # ---------------------------------------------------- input and output derivatives
+    def step_torque(self) -> Torque:
+        """The torque of the next doStep: the input's value, a polynomial once derivatives are set."""
+        if self.torque_rates == NO_RATES:
+            return self.torque
+        return TorqueProfile(self.torque, *self.torque_rates)
+
+    def set_real_input_derivatives(self, vrs: list[int], orders: list[int], values: list[float]) -> None:
+        """fmi2SetRealInputDerivatives of the torque, orders 1 and 2 (the binary checks the references,
+        orders and values first; refused here too, for a caller without it)."""
+        rates = list(self.torque_rates)
+        for vr, order, value in zip(vrs, orders, values, strict=True):
+            var = self.vars.get(vr)
+            if var is None or var.causality != Fmi2Causality.input or order not in (1, 2) or not math.isfinite(value):
+                what = "no variable" if var is None else var.name
+                self._error(
+                    f"fmi2SetRealInputDerivatives refused: order {order!r} of value reference {vr} ({what}) = "
+                    f"{value!r}; only the torque's derivatives of order 1 and 2, finite, can be set"
+                )
+                return
+            rates[order - 1] = float(value)
+        self.torque_rates, self._derivatives = (rates[0], rates[1]), None
+
+    def get_real_output_derivatives(self, vrs: list[int], orders: list[int]) -> list[float]:
+        """fmi2GetRealOutputDerivatives: the model's derivatives of the continuous outputs at its time, with
+        the torque as the next doStep would take it; a per-step summary has none (fmi2Error, saying why)."""
+        fields: list[str] = []
+        for vr in vrs:
+            var = self.vars.get(vr)
+            field = OUTPUT_FIELDS.get(var.name) if var is not None else None
+            reason = "it is not an output" if field is None else SUMMARY_OUTPUTS.get(field)
+            if field is None or reason is not None:
+                name = var.name if var is not None else f"value reference {vr}"
+                self._error(f"fmi2GetRealOutputDerivatives refused: {name} has no time derivative: {reason}")
+                return [0.0] * len(vrs)
+            fields.append(field)
+        derivatives = self._output_derivatives()
+        if derivatives is None:
+            return [0.0] * len(vrs)
+        return [derivatives.of(field, order) for field, order in zip(fields, orders, strict=True)]
+
+    def _output_derivatives(self) -> OutputDerivatives | None:
+        """The model's output derivatives for the current state and torque (remembered until either
+        changes); None after reporting why there are none."""
+        model = self.model
+        if model is None or self.broken is not None:
+            self._error(f"fmi2GetRealOutputDerivatives refused: {self.broken or 'the FMU has no model'}")
+            return None
+        key = (model.time, self.torque, self.torque_rates)
+        if self._derivatives is not None and self._derivatives[0] == key:
+            return self._derivatives[1]
+        torque = TorqueProfile(self.torque, *self.torque_rates)
+        if torque.problems():  # the derivatives are those under the torque the next doStep would take
+            self._error(f"fmi2GetRealOutputDerivatives refused: {'; '.join(torque.problems())}")
+            return None
+        with routed(self._handler):
+            try:
+                found = model.output_derivatives(torque)
+            except (StepFailed, ValueError) as exc:  # a probe step of the model could not be taken
+                self._error(f"fmi2GetRealOutputDerivatives failed at t = {model.time!r}, state kept: {exc}")
+                return None
+        self._derivatives = (key, found)
+        return found
 
     # ------------------------------------------------------------ field output
     def _start_field_output(self) -> None:
@@ -255,7 +362,9 @@ class PendulumSlave(CheckedVariableAccess):
     def _get_fmu_state(self) -> FmuState:
         model = self.model.get_state() if self.model is not None else None
         # a state taken before initialisation brings its start time
-        return FmuState(model, self.torque, dict(self.values), self.initialised, self.communication_time)
+        return FmuState(
+            model, self.torque, dict(self.values), self.initialised, self.communication_time, self.torque_rates
+        )
 
     def _set_fmu_state(self, state: FmuState) -> None:
         """Restore a state of this FMU; anything else is refused (fmi2Error, state unchanged), never
@@ -283,7 +392,7 @@ class PendulumSlave(CheckedVariableAccess):
             self._discarded = None
         if state.model is None and self.model is None:
             self.time = state.time
-        self.torque = state.torque
+        self.torque, self.torque_rates, self._derivatives = state.torque, state.torque_rates, None
 
     @staticmethod
     def _fmu_state_to_bytes(state: FmuState) -> bytes:
@@ -313,5 +422,6 @@ class PendulumSlave(CheckedVariableAccess):
         nothing."""
         self.model = None
         self.outputs = None
+        self._preview = None
         self.vtk = None
         self.forget_value_references()

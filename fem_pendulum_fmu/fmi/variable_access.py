@@ -38,6 +38,11 @@ class CheckedVariableAccess(Fmi2Slave):
         self._real_readers: dict[tuple[int, ...], tuple[Callable[[Outputs], Any] | None, bool]] = {}
         self._real_setters: dict[tuple[int, ...], tuple[Callable[[Any], None], ...]] = {}
 
+    def initial_outputs(self) -> Outputs | None:
+        """The outputs to read while `outputs` is None (None: zeros); a slave that can say them before its
+        model exists overrides this."""
+        return None
+
     def _error(self, msg: str) -> None:
         """Make the FMI call in progress answer fmi2Error and log `msg` with status error (see shim/)."""
         if not self._report.report(msg):
@@ -80,7 +85,7 @@ class CheckedVariableAccess(Fmi2Slave):
         read, single = reader
         if read is None:
             return super().get_real(vrs)
-        outputs = self.outputs
+        outputs = self.outputs if self.outputs is not None else self.initial_outputs()
         if outputs is None:
             return [0.0] * len(vrs)
         return [float(read(outputs))] if single else list(map(float, read(outputs)))

@@ -15,6 +15,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from .scene import Scene
+from .torque import Torque, TorqueProfile
 
 
 class StepFailed(RuntimeError):
@@ -55,6 +56,45 @@ class Outputs:
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
+
+
+CONTINUOUS_OUTPUTS = (
+    "theta",
+    "omega",
+    "gap",
+    "contact_force",
+    "kinetic",
+    "potential",
+    "strain",
+    "contact",
+    "total",
+    "torque_work",
+    "von_mises_max",
+)
+"""The Outputs fields that are functions of the state at an instant, whose time derivatives exist."""
+
+SUMMARY_OUTPUTS = {
+    "substeps": "it counts the internal steps of the last doStep",
+    "min_gap": "it is the smallest gap over the internal steps of the last doStep",
+    "contact_force_max": "it is the largest contact force over the internal steps of the last doStep",
+    "contact_impulse": "it is the contact impulse over the whole last doStep",
+    "contact_hold": "it is the contact's hold as the step control counts it",
+}
+"""The Outputs fields that summarise the last advance, and why they have no time derivative."""
+
+
+@dataclass
+class OutputDerivatives:
+    """d/dt and d^2/dt^2 of the CONTINUOUS_OUTPUTS (Outputs field name -> value, SI units per s and s^2)
+    at one instant."""
+
+    time: float
+    first: dict[str, float]
+    second: dict[str, float]
+
+    def of(self, field_name: str, order: int) -> float:
+        """The derivative of `order` (1 or 2) of an Outputs field; KeyError for a field without one."""
+        return (self.first if order == 1 else self.second)[field_name]
 
 
 @dataclass
@@ -122,11 +162,16 @@ class PendulumModel(Protocol):
     fidelity: str
     time: float  # the current model time (s)
 
-    def advance(self, t_end: float, torque: float) -> Outputs:
-        """Integrate from the current time to t_end with the torque held constant.
+    def advance(self, t_end: float, torque: Torque) -> Outputs:
+        """Integrate from the current time to t_end with the torque held constant (a float) or
+        following a TorqueProfile given at the current time (physics/torque.py).
 
         Raises StepFailed (state unchanged) when the step cannot be completed and
         ValueError for a bad argument (state unchanged)."""
+
+    def output_derivatives(self, torque: TorqueProfile) -> OutputDerivatives:
+        """The first and second time derivatives of the continuous outputs at the current state,
+        with the torque following `torque` from now on (physics/output_rates.py)."""
 
     def outputs(self) -> Outputs:
         """The outputs at the current time."""
@@ -141,10 +186,14 @@ class PendulumModel(Protocol):
         """Nodal fields of the current state, the pendulum first (then the meshed wall, if any)."""
 
 
-def check_advance_args(time: float, t_end: float, torque: float) -> None:
+def check_advance_args(time: float, t_end: float, torque: Torque) -> None:
     """Shared argument check for advance(): a ValueError naming the bad value (math, not numpy:
     it runs at every doStep, and numpy's scalar calls cost microseconds)."""
-    if not math.isfinite(torque):
+    if isinstance(torque, TorqueProfile):
+        problems = torque.problems()
+        if problems:
+            raise ValueError("; ".join(problems))
+    elif not math.isfinite(torque):
         raise ValueError(f"torque = {torque!r} is not allowed: it must be a finite number (N.m)")
     if not math.isfinite(t_end) or t_end <= time:
         raise ValueError(f"t_end = {t_end!r} is not allowed: it must be a finite time after the current time {time!r}")

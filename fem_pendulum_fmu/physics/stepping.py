@@ -40,6 +40,11 @@ The rule, in words (it is what `solver.max_step` and `solver.tolerance` mean):
   (state kept), so a master learns of a stall at once and can retry with a
   shorter communication step.
 
+A torque that follows a polynomial over the advance (physics/torque.py) reaches
+each step, trial steps of the onset location included, as its exact mean over
+that step; the held-contact test uses its largest |T| over the advance. A
+constant torque is passed on as it is.
+
 Models supply the single energy-consistent step and the contact scales; this
 module only decides the step sizes. It also tallies the contact over the
 accepted steps of an advance (`ContactTally`): the largest contact force at
@@ -58,6 +63,7 @@ import numpy as np
 
 from .mass_properties import gravity_moment
 from .protocol import Outputs, StepFailed, check_advance_args
+from .torque import Torque, TorqueProfile, as_profile
 
 if TYPE_CHECKING:
     from .scene import Scene
@@ -155,14 +161,19 @@ class AdvanceResult(Generic[X]):
         return finish_advance(outputs, self.min_gap, c.force_max, math.hypot(c.impulse_x, c.impulse_y), c.hold)
 
 
-def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, control: StepControl) -> AdvanceResult[X]:
-    """Integrate from t to t_end; raises StepFailed if a step cannot be completed."""
+def advance(
+    model: Steppable[X], x: X, t: float, t_end: float, torque: Torque, control: StepControl
+) -> AdvanceResult[X]:
+    """Integrate from t to t_end; raises StepFailed if a step cannot be completed. `torque` is a
+    constant or a TorqueProfile whose time starts at t."""
     n_contact = control.steps_per_contact
     substeps = rejected = 0
     dt_cap = control.max_step  # lowered after a failed solve, grows back on success
     min_gap = math.inf
     contact = _start_tally(model)
     load = math.nan  # what the torque and gravity can press with, asked for once a contact is held long enough
+    profile = as_profile(torque)
+    t_start = t
     while t_end - t > 0.0:
         remaining = t_end - t
         gap, rate = model.gap_and_rate(x)
@@ -174,7 +185,7 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, co
         held = False
         if contact.hold > HELD_CONTACTS * t_contact:
             if math.isnan(load):
-                load = _load_force(model, torque)
+                load = _load_force(model, profile.largest(t - t_start, t_end - t_start))
             held = contact.force_now <= HELD_FORCE * load
         if held:
             dt_contact = math.inf  # free-flight steps, and no onset to locate
@@ -187,7 +198,7 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, co
         if remaining - dt < control.min_step:
             dt = remaining
         # named first: unpacked in place, mypy would solve the step's state type as X | None
-        onset = _step_locating_onset(model, x, dt, torque, gap, pen_tol, dt_contact, control)
+        onset = _step_locating_onset(model, x, dt, _StepTorque(profile, t - t_start), gap, pen_tol, dt_contact, control)
         x_new, dt, fails = onset
         rejected += fails
         if x_new is None:
@@ -205,6 +216,19 @@ def advance(model: Steppable[X], x: X, t: float, t_end: float, torque: float, co
         dt_cap = min(control.max_step, 2.0 * dt_cap)
     min_gap = min(min_gap, model.gap_and_rate(x)[0])
     return AdvanceResult(x, substeps, rejected, min_gap, contact)
+
+
+class _StepTorque:
+    """The torque of a step from offset `s` (time since the advance's start) as the midpoint-type
+    schemes take it: the profile's exact mean over the step (the constant itself for a constant)."""
+
+    __slots__ = ("profile", "s")
+
+    def __init__(self, profile: TorqueProfile, s: float):
+        self.profile, self.s = profile, s
+
+    def over(self, dt: float) -> float:
+        return self.profile.mean(self.s, self.s + dt)
 
 
 def check_substeps(control: StepControl, substeps: int, t: float, t_end: float) -> None:
@@ -278,7 +302,7 @@ def _step_locating_onset(
     model: Steppable[X],
     x: X,
     dt: float,
-    torque: float,
+    torque: _StepTorque,
     gap0: float,
     pen_tol: float,
     dt_contact: float,
@@ -288,7 +312,7 @@ def _step_locating_onset(
 
     Bracketing regula falsi on the step size: `lo` ends outside, `hi` too deep.
     Returns (new state or None, the step size taken, number of rejected trials)."""
-    x_new = model.step(x, dt, torque)
+    x_new = model.step(x, dt, torque.over(dt))
     if x_new is None:
         return None, dt, 1
     if gap0 < 0.0 or dt <= dt_contact:
@@ -304,7 +328,7 @@ def _step_locating_onset(
             break
         trial_dt = lo + (hi - lo) * g_lo / (g_lo - g_hi)
         trial_dt = min(max(trial_dt, lo + 0.05 * (hi - lo)), hi - 0.05 * (hi - lo))
-        trial = model.step(x, trial_dt, torque)
+        trial = model.step(x, trial_dt, torque.over(trial_dt))
         if trial is None:
             return None, trial_dt, fails + 1
         g, _ = model.gap_and_rate(trial)
@@ -318,7 +342,7 @@ def _step_locating_onset(
     if x_lo is not None:
         return x_lo, lo, fails
     dt = max(min(hi, dt_contact), control.min_step)
-    return model.step(x, dt, torque), dt, fails
+    return model.step(x, dt, torque.over(dt)), dt, fails
 
 
 class SteppedModel(Generic[X]):
@@ -352,9 +376,10 @@ class SteppedModel(Generic[X]):
     def _compute_outputs(self, x: X, t: float, substeps: int) -> Outputs:
         raise NotImplementedError
 
-    def advance(self, t_end: float, torque: float) -> Outputs:
+    def advance(self, t_end: float, torque: Torque) -> Outputs:
         check_advance_args(self.time, t_end, torque)
-        result = advance(self, self._x, self.time, float(t_end), float(torque), self.control)
+        torque = torque if isinstance(torque, TorqueProfile) else float(torque)
+        result = advance(self, self._x, self.time, float(t_end), torque, self.control)
         self._x = result.state
         self.time = float(t_end)
         self._outputs = self._compute_outputs(self._x, self.time, result.substeps)

@@ -356,7 +356,7 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
     return set_values(c, CALL_fmi2SetString, "set_string", KIND_STRING, vr, n, (const void *)v);
 }
 
-/* Functions the modelDescription says this FMU does not provide: refused in every state. */
+/* A function the modelDescription says this FMU does not provide: refused in every state. */
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[], size_t nu,
                                         const fmi2ValueReference z[], size_t nz, const fmi2Real dv[], fmi2Real dz[]) {
     (void)u, (void)nu, (void)z, (void)nz, (void)dv, (void)dz;
@@ -364,18 +364,94 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
     return fmi2Error;
 }
 
-fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
-                                       const fmi2Integer order[], const fmi2Real value[]) {
-    (void)vr, (void)n, (void)order, (void)value;
-    allowed(c, CALL_fmi2SetRealInputDerivatives);
-    return fmi2Error;
+/* The orders and values of a derivative call as Python lists (new references), or NULL. */
+static PyObject *order_list(const fmi2Integer order[], size_t n) {
+    PyObject *list = py.ListNew((Py_ssize_t)n);
+    for (size_t k = 0; list != NULL && k < n; k++) {
+        PyObject *item = py.LongFromLong((long)order[k]);
+        if (item == NULL || py.ListSetItem(list, (Py_ssize_t)k, item) != 0) {
+            py.DecRef(list);
+            list = NULL;
+        }
+    }
+    return list;
 }
 
+static PyObject *real_list(const fmi2Real value[], size_t n) {
+    PyObject *list = py.ListNew((Py_ssize_t)n);
+    for (size_t k = 0; list != NULL && k < n; k++) {
+        PyObject *item = py.FloatFromDouble(value[k]);
+        if (item == NULL || py.ListSetItem(list, (Py_ssize_t)k, item) != 0) {
+            py.DecRef(list);
+            list = NULL;
+        }
+    }
+    return list;
+}
+
+/* Input interpolation (FMI 2.0, section 4.2.1): derivatives of the inputs at the communication point, for the
+ * next doStep. Each a continuous Real input, order 1 to FMU_INPUT_DERIVATIVE_ORDER, a finite value; anything
+ * else is fmi2Error with nothing changed. docs/fmu.md says what the slave does with them after the step. */
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                       const fmi2Integer order[], const fmi2Real value[]) {
+    Frame f;
+    Instance *inst = allowed(c, CALL_fmi2SetRealInputDerivatives);
+    if (inst == NULL) return fmi2Error;
+    if (n == 0) return fmi2OK;
+    if (vr == NULL || order == NULL || value == NULL)
+        return refuse(inst, CALL_fmi2SetRealInputDerivatives, "the value reference, order or value array is NULL");
+    char why[512];
+    const char *bad = derivatives_problem(vr, n, order, ROLE_INPUT, FMU_INPUT_DERIVATIVE_ORDER, why, sizeof why);
+    for (size_t k = 0; bad == NULL && k < n; k++) {
+        if (!isfinite(value[k])) {
+            snprintf(why, sizeof why, "the derivative of order %d of value reference %u is %g: it must be a finite "
+                     "number", (int)order[k], vr[k], value[k]);
+            bad = why;
+        }
+    }
+    if (bad != NULL) return refuse(inst, CALL_fmi2SetRealInputDerivatives, bad);
+    if (!enter_python(inst, CALL_fmi2SetRealInputDerivatives, &f)) return fmi2Error;
+    PyObject *refs = references(vr, n), *orders = order_list(order, n), *values = real_list(value, n);
+    PyObject *r = refs && orders && values
+                      ? py.CallMethod(inst->slave, "set_real_input_derivatives", "(OOO)", refs, orders, values) : NULL;
+    PyObject *lists[] = {refs, orders, values};
+    for (size_t k = 0; k < 3; k++)
+        if (lists[k]) py.DecRef(lists[k]);
+    return end(&f, slave_settle(inst, "fmi2SetRealInputDerivatives", r, fmi2OK));
+}
+
+/* Output derivatives at the FMU's time: each a continuous Real output, order 1 to maxOutputDerivativeOrder
+ * (the slave refuses outputs that have none, saying why). */
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
                                         const fmi2Integer order[], fmi2Real value[]) {
-    (void)vr, (void)n, (void)order, (void)value;
-    allowed(c, CALL_fmi2GetRealOutputDerivatives);
-    return fmi2Error;
+    Frame f;
+    Instance *inst = allowed(c, CALL_fmi2GetRealOutputDerivatives);
+    if (inst == NULL) return fmi2Error;
+    if (n == 0) return fmi2OK;
+    if (vr == NULL || order == NULL || value == NULL)
+        return refuse(inst, CALL_fmi2GetRealOutputDerivatives, "the value reference, order or value array is NULL");
+    char why[512];
+    const char *bad = derivatives_problem(vr, n, order, ROLE_OUTPUT, FMU_MAX_OUTPUT_DERIVATIVE_ORDER, why, sizeof why);
+    if (bad != NULL) return refuse(inst, CALL_fmi2GetRealOutputDerivatives, bad);
+    if (!enter_python(inst, CALL_fmi2GetRealOutputDerivatives, &f)) return fmi2Error;
+    PyObject *refs = references(vr, n), *orders = order_list(order, n);
+    PyObject *answer = refs && orders ? py.CallMethod(inst->slave, "get_real_output_derivatives", "(OO)", refs, orders)
+                                      : NULL;
+    if (refs) py.DecRef(refs);
+    if (orders) py.DecRef(orders);
+    fmi2Status status = fmi2OK;
+    if (answer != NULL && !error_pending()) {
+        int ok = py.ListSize(answer) == (Py_ssize_t)n;
+        for (size_t k = 0; ok && k < n; k++) ok = read_item(KIND_REAL, py.ListGetItem(answer, (Py_ssize_t)k), value, k);
+        if (!ok) {
+            char text[2048] = "the answer is not a list of the right length";
+            if (py.ErrOccurred()) exception_message(text, sizeof text);
+            log_error(inst, "fmi2GetRealOutputDerivatives failed: the FMU's Python code gave no usable values (%s)",
+                      text);
+            status = fmi2Error;
+        }
+    }
+    return end(&f, slave_settle(inst, "fmi2GetRealOutputDerivatives", answer, status));
 }
 
 /* --------------------------------------------------------- status functions */

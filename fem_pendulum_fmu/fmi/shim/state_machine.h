@@ -8,6 +8,8 @@
 #ifndef FEM_PENDULUM_STATE_MACHINE_H
 #define FEM_PENDULUM_STATE_MACHINE_H
 
+#include "fmu_build.h"
+
 typedef enum {
     STATE_INSTANTIATED = 1 << 0,
     STATE_INITIALIZATION_MODE = 1 << 1,
@@ -19,6 +21,10 @@ typedef enum {
 #define INITIALISED (STATE_INITIALIZATION_MODE | STATE_STEP_COMPLETE | STATE_TERMINATED)
 #define SETTABLE (STATE_INSTANTIATED | STATE_INITIALIZATION_MODE | STATE_STEP_COMPLETE)
 #define NO_STATE 0 /* a function this FMU does not provide: refused in every state */
+/* input derivatives are inputs (FMI 2.0: the restrictions of fmi2SetReal); output derivatives are read
+ * where the standard allows it of the states these FMUs enter: after a step and once terminated */
+#define INPUT_DERIVATIVES (FMU_INPUT_DERIVATIVE_ORDER > 0 ? SETTABLE : NO_STATE)
+#define OUTPUT_DERIVATIVES (FMU_MAX_OUTPUT_DERIVATIVE_ORDER > 0 ? (STATE_STEP_COMPLETE | STATE_TERMINATED) : NO_STATE)
 
 /* X(call, states in which it is allowed) */
 #define FMI2_CALLS(X)                                                     \
@@ -43,8 +49,8 @@ typedef enum {
     X(fmi2SerializeFMUstate, ANY_STATE)                                   \
     X(fmi2DeSerializeFMUstate, ANY_STATE)                                 \
     X(fmi2GetDirectionalDerivative, NO_STATE)                             \
-    X(fmi2SetRealInputDerivatives, NO_STATE)                              \
-    X(fmi2GetRealOutputDerivatives, NO_STATE)                             \
+    X(fmi2SetRealInputDerivatives, INPUT_DERIVATIVES)                     \
+    X(fmi2GetRealOutputDerivatives, OUTPUT_DERIVATIVES)                   \
     X(fmi2DoStep, STATE_STEP_COMPLETE)                                    \
     X(fmi2CancelStep, NO_STATE)                                           \
     X(fmi2GetStatus, STATE_STEP_COMPLETE | STATE_TERMINATED)              \

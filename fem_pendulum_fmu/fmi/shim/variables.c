@@ -47,3 +47,26 @@ const char *variables_problem(const fmi2ValueReference vr[], size_t n, Kind kind
     }
     return NULL;
 }
+
+const char *derivatives_problem(const fmi2ValueReference vr[], size_t n, const fmi2Integer order[], Role role,
+                                int max_order, char *why, size_t size) {
+    const char *wanted = role == ROLE_INPUT ? "a continuous Real input" : "a continuous Real output";
+    for (size_t k = 0; k < n; k++) {
+        const Variable *var = find_any(vr[k]);
+        if (var == NULL) {
+            snprintf(why, size, "value reference %u is no variable of this FMU (see modelDescription.xml)", vr[k]);
+            return why;
+        }
+        if (var->role != role) {
+            snprintf(why, size, "%s (value reference %u) is not %s: only those have time derivatives here",
+                     var->name, vr[k], wanted);
+            return why;
+        }
+        if (order[k] < 1 || order[k] > max_order) {
+            snprintf(why, size, "order %d of %s (value reference %u) is not allowed: the orders are 1 to %d",
+                     (int)order[k], var->name, vr[k], max_order);
+            return why;
+        }
+    }
+    return NULL;
+}

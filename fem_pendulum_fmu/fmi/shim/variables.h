@@ -10,6 +10,8 @@
 #include "state_machine.h"
 
 typedef enum { KIND_REAL, KIND_INTEGER, KIND_BOOLEAN, KIND_STRING } Kind;
+/* a continuous Real input or output: what has time derivatives (fmi2Set/GetReal*Derivatives) */
+typedef enum { ROLE_OTHER, ROLE_INPUT, ROLE_OUTPUT } Role;
 
 typedef struct {
     fmi2ValueReference vr;
@@ -17,10 +19,17 @@ typedef struct {
     const char *name;
     const char *what;      /* "an output", "a fixed parameter": for messages */
     int settable;          /* the states in which a host may set it (MachineState mask) */
+    Role role;
 } Variable;
 
 /* Why getting (setting = 0) or setting these variables of `kind` in `state` is refused, or NULL. */
 const char *variables_problem(const fmi2ValueReference vr[], size_t n, Kind kind, int setting, MachineState state,
                               char *why, size_t size);
+
+/* Why fmi2SetRealInputDerivatives (role ROLE_INPUT) or fmi2GetRealOutputDerivatives (ROLE_OUTPUT) of these
+ * variables and orders is refused, or NULL: each a continuous Real variable of that role, each order in
+ * 1..max_order. */
+const char *derivatives_problem(const fmi2ValueReference vr[], size_t n, const fmi2Integer order[], Role role,
+                                int max_order, char *why, size_t size);
 
 #endif

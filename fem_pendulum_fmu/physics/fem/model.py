@@ -31,9 +31,19 @@ import numpy as np
 from ngsolve import CF, x, y
 
 from ..contact_time import contact_time_scale, effective_mass
-from ..protocol import BodyField, ModelState, Outputs, StepFailed, check_advance_args, restore_advance_summary
+from ..output_rates import probe_derivatives
+from ..protocol import (
+    BodyField,
+    ModelState,
+    OutputDerivatives,
+    Outputs,
+    StepFailed,
+    check_advance_args,
+    restore_advance_summary,
+)
 from ..scene import Scene, validate
 from ..stepping import StepControl
+from ..torque import Torque, TorqueProfile
 from .head import HeadBoundary
 from .newton import HeldJacobianNewton, Turn
 from .outputs import FemOutputs
@@ -47,6 +57,10 @@ from .step_loader import StepLoader
 # motion is rejected and halved. The discrete gradient's Gauss rule is exact only to the strain
 # increment's 6th power; a crushing rubber hinge otherwise gained 15 % in 0.3 ms (docs/robustness.md).
 STEP_ENERGY_TOLERANCE = 1e-3
+# The probe steps of output_derivatives (s): Newton's tolerance (NEWTON_RTOL of a step's displacement) leaves
+# ~1e-9 |omega| / PROBE_STEP in theta'', 1e-5 of it at 20 degrees; the one-sided differences' truncation,
+# (PROBE_STEP / 1 ms)^2 of an elastic vibration of 1 ms period, is 1e-4
+PROBE_STEP = 1e-5
 
 
 class FemModel:
@@ -200,9 +214,9 @@ class FemModel:
         return self.measures.contact_impulse(x0.u, x1.u, dt, trapezoid)
 
     # ---------------------------------------------------------------- protocol
-    def advance(self, t_end: float, torque: float) -> Outputs:
+    def advance(self, t_end: float, torque: Torque) -> Outputs:
         check_advance_args(self.time, t_end, torque)
-        torque = float(torque)
+        torque = torque if isinstance(torque, TorqueProfile) else float(torque)
         held = self.newton.held
         try:
             with ngs.TaskManager() if self.scene.model.threads > 1 else nullcontext():
@@ -220,6 +234,11 @@ class FemModel:
 
     def outputs(self) -> Outputs:
         return self._outputs
+
+    def output_derivatives(self, torque: TorqueProfile) -> OutputDerivatives:
+        """The outputs' time derivatives at the current state from three probe steps of the scheme
+        (physics/output_rates.py; the state, held Jacobian included, restored afterwards)."""
+        return probe_derivatives(self, torque, PROBE_STEP)
 
     def fields(self) -> list[BodyField]:
         return self.measures.fields(self._state)

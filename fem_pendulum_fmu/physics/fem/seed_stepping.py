@@ -7,7 +7,9 @@
   under 1 mm, 5e-4 s under 5 mm, 1e-3 s under 1 cm, else `max_step`.
 
 Nothing locates contact onset and nothing relates the step to the contact's
-duration: that is what the comparison is about. A step whose nonlinear solve
+duration: that is what the comparison is about. The trapezoidal rule balances
+the forces at the step's end, so a torque that follows a polynomial
+(physics/torque.py) reaches each step as its value at the step's end. A step whose nonlinear solve
 fails is retried at half the size, down to `min_step` (StepFailed below it).
 """
 
@@ -19,9 +21,10 @@ from collections.abc import Callable
 
 from ..protocol import StepFailed
 from ..stepping import AdvanceResult, ContactTally, StepControl, Steppable, X, check_substeps
+from ..torque import Torque, as_profile
 
 # an advance's step control: stepping.advance, or this module's rules of one scheme (`stepper`)
-Stepper = Callable[[Steppable[X], X, float, float, float, StepControl], AdvanceResult[X]]
+Stepper = Callable[[Steppable[X], X, float, float, Torque, StepControl], AdvanceResult[X]]
 
 GAP_RULE = ((1e-3, 1e-4), (5e-3, 5e-4), (1e-2, 1e-3))  # (gap below, step), the seed's thresholds
 
@@ -40,9 +43,10 @@ def stepper(scheme: str) -> Stepper:
 
 
 def advance(
-    model: Steppable[X], x: X, t: float, t_end: float, torque: float, control: StepControl, scheme: str
+    model: Steppable[X], x: X, t: float, t_end: float, torque: Torque, control: StepControl, scheme: str
 ) -> AdvanceResult[X]:
     """Integrate from t to t_end with the seed's step sizes; raises StepFailed like stepping.advance."""
+    profile, t_start = as_profile(torque), t
     substeps = rejected = 0
     min_gap = math.inf
     halvings = 0
@@ -55,7 +59,7 @@ def advance(
         dt = dt / 2.0**halvings
         if remaining - dt < control.min_step:
             dt = remaining
-        x_new = model.step(x, dt, torque)
+        x_new = model.step(x, dt, profile.at(t + dt - t_start))
         if x_new is None:
             rejected += 1
             halvings += 1

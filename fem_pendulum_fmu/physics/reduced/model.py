@@ -41,12 +41,14 @@ import math
 
 import numpy as np
 
-from ..protocol import BodyField, ModelState, Outputs, restore_advance_summary
+from ..output_rates import flow_derivatives, flow_step
+from ..protocol import BodyField, ModelState, OutputDerivatives, Outputs, restore_advance_summary
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel
+from ..torque import TorqueProfile
 from .approach import WallApproach
 from .contact import WallContact
-from .dynamics import Gravity, ModalMass, inverse_form
+from .dynamics import Gravity, ModalMass, inverse_form, inverse_times
 from .head import HeadPoints
 from .modal_field import ModalField
 from .modes import ModalBasis, modal_basis
@@ -78,7 +80,7 @@ class ReducedModel(SteppedModel[ReducedState]):
         self.block = scene.block
         self.control = StepControl.for_scene(scene)
         hk = scene.pendulum.thickness * scene.contact.stiffness
-        torque_unit = np.concatenate([[1.0], b.torque_modes])  # generalised force of a unit torque
+        self._torque_unit = torque_unit = np.concatenate([[1.0], b.torque_modes])  # generalised force of a unit torque
         self._strain = strain = strain_energy(scene, b)
         self._mass = mass = ModalMass(b)
         gravity = Gravity(scene.gravity, b)
@@ -130,6 +132,30 @@ class ReducedModel(SteppedModel[ReducedState]):
         return self._contact.impulse(x0.z, x1.z, dt)
 
     # ---------------------------------------------------------------- protocol
+    def output_derivatives(self, torque: TorqueProfile) -> OutputDerivatives:
+        """The outputs' time derivatives at the current state (physics/output_rates.py), along the
+        Hamiltonian flow the step discretises: dz/dt = M(q)^-1 p, dp/dt = -dH/dz + T Q, the torque
+        work's rate T Q . dz/dt. -dH/dz is -dV/dz plus the kinetic energy's q-gradient at fixed
+        velocity, theta'^2 (a + q) + theta' G q' (from M's border: m00 = I0 + 2 a.q + q.q, c = G^T q)."""
+        n, t, mass = self.n, self.time, self._mass
+
+        def flow(x: np.ndarray, T: float) -> np.ndarray:
+            z, p = x[:n], x[n : 2 * n]
+            q = z[1:]
+            _, c, s = mass.parts(q)
+            zdot = inverse_times(c, s, p)
+            w, qdot = zdot[0], zdot[1:]
+            pdot = T * self._torque_unit - self._potential.gradient(z)
+            pdot[1:] += (w * w) * (mass.a + q) + w * (mass.gyro @ qdot)
+            return np.concatenate([zdot, pdot, [T * float(self._torque_unit @ zdot)]])
+
+        def observe(x: np.ndarray) -> Outputs:
+            return self._compute_outputs(ReducedState(x[:n].copy(), x[n : 2 * n].copy(), float(x[-1])), t, 0)
+
+        x0 = self._x
+        state = np.concatenate([x0.z, x0.p, [x0.torque_work]])
+        return flow_derivatives(state, flow, observe, torque, t, flow_step(self.contact_scales(x0)[0]))
+
     def get_state(self) -> ModelState:
         return self._x.to_model_state(self.time, self._outputs)
 

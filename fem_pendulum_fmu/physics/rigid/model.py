@@ -27,9 +27,11 @@ import numpy as np
 
 from ..contact_time import effective_mass
 from ..mass_properties import gravity_moment, mass_properties
-from ..protocol import BodyField, ModelState, Outputs, check_advance_args, restore_advance_summary
+from ..output_rates import flow_derivatives, flow_step
+from ..protocol import BodyField, ModelState, OutputDerivatives, Outputs, check_advance_args, restore_advance_summary
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel, decayed_hold, finish_advance
+from ..torque import Torque, TorqueProfile
 from . import arc_contact as rigid_contact
 from .solve import Contact, StepSolver
 from .state import FIDELITY, RigidState
@@ -192,12 +194,14 @@ class RigidModel(SteppedModel[RigidState]):
         return pen.fx, pen.fy, pen.d_energy
 
     # ------------------------------------------------------------- advance
-    def advance(self, t_end: float, torque: float) -> Outputs:
+    def advance(self, t_end: float, torque: Torque) -> Outputs:
         """The protocol's advance: one free-flight step taken directly when it provably stays off the
-        block (`_free_step`), else the shared stepper (stepping.py)."""
-        t_end, torque = float(t_end), float(torque)
+        block (`_free_step`, with the profile's mean torque over it), else the shared stepper (stepping.py)."""
+        t_end = float(t_end)
+        torque = torque if isinstance(torque, TorqueProfile) else float(torque)
         check_advance_args(self.time, t_end, torque)
-        out = self._free_step(t_end, torque)
+        mean = torque if isinstance(torque, float) else torque.mean(0.0, t_end - self.time)
+        out = self._free_step(t_end, mean)
         return out if out is not None else SteppedModel.advance(self, t_end, torque)
 
     def _free_step(self, t_end: float, torque: float) -> Outputs | None:
@@ -281,6 +285,23 @@ class RigidModel(SteppedModel[RigidState]):
         return math.pi * math.sqrt(m_eff / k_sec), delta
 
     # ------------------------------------------------------------- protocol
+    def output_derivatives(self, torque: TorqueProfile) -> OutputDerivatives:
+        """The outputs' time derivatives at the current state (physics/output_rates.py): the flow
+        d(theta, omega, work)/dt = (omega, (T - V'(theta)) / I, T omega), V gravity + contact energy."""
+        t = self.time
+
+        def flow(x: np.ndarray, T: float) -> np.ndarray:
+            q, w = float(x[0]), float(x[1])
+            dV = self._mgd * math.sin(q) + self.contact_energy(q).d_energy
+            return np.array((w, (T - dV) / self.inertia, T * w))
+
+        def observe(x: np.ndarray) -> Outputs:
+            return self._compute_outputs(RigidState(float(x[0]), float(x[1]), float(x[2])), t, 0)
+
+        x = np.array(self._x)
+        step = flow_step(self.contact_scales(self._x)[0])
+        return flow_derivatives(x, flow, observe, torque, t, step)
+
     def get_state(self) -> ModelState:
         return self._x.to_model_state(self.time, self._outputs)
 
