@@ -29,7 +29,7 @@ from .failures import (
     finite_cell,
 )
 from .realtime import Pacer
-from .run_options import DEFAULT_FMU, add_run_options  # noqa: F401  (DEFAULT_FMU: masters/sweep imports it from here)
+from .run_options import add_run_options
 from .run_progress import RunProgress
 
 

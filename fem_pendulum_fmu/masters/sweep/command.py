@@ -15,7 +15,7 @@ import importlib.util
 from pathlib import Path
 
 from ..failures import IncompleteRun, UsageError, check_fmu, check_output_prefix, check_times
-from ..open_loop import DEFAULT_FMU
+from ..run_options import DEFAULT_FMU
 
 EXTRA = ("dask", "distributed", "pandas", "pyarrow")
 
