@@ -7,10 +7,13 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from ..failures import UsageError
 from .connections import SETPOINT, Wiring, check_wiring, default_connections, parse_connection
+
+if TYPE_CHECKING:
+    from ..named_slave import NamedSlave
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,12 +76,20 @@ class FunctionController:
 
 class FmuController:
     """An FMI 2.0 co-simulation controller FMU, its inputs set from the wiring before each doStep and
-    its torque output read after it (loop.py says why that order)."""
+    its torque output read after it (loop.py says why that order). `slave`: an instance of the FMU
+    at `path` already initialised with `parameters`, to use instead of a new one (a sweep's worker
+    reuses one, masters/sweep/loop_run.py)."""
 
-    def __init__(self, path: Path, wiring: Wiring, parameters: Mapping[str, float | int | bool]) -> None:
+    def __init__(
+        self,
+        path: Path,
+        wiring: Wiring,
+        parameters: Mapping[str, float | int | bool],
+        slave: NamedSlave | None = None,
+    ) -> None:
         from ..named_slave import NamedSlave
 
-        self.slave = NamedSlave(path, "controller", dict(parameters))
+        self.slave = slave if slave is not None else NamedSlave(path, "controller", dict(parameters))
         self.description = path.name
         self.wiring = wiring
         self._torque_vr = [self.slave.vr[wiring.torque_from]]
@@ -142,18 +153,21 @@ def controller_fmu(
     return ControllerFmuSpec(Path(path), wiring, parameter_values(parameters, types))
 
 
-def parameter_values(items: Sequence[str] | Mapping[str, object], types: Mapping[str, str]) -> dict:
+def parameter_values(
+    items: Sequence[str] | Mapping[str, object], types: Mapping[str, str], written: str = "--controller-set {}"
+) -> dict:
     """--controller-set NAME=VALUE items (or a mapping) as typed start values of the controller's
-    parameters, or UsageError naming the item and listing the parameters."""
+    parameters, or UsageError naming the item and listing the parameters; `written` is how an
+    error writes a parameter's name (a sweep's axis: "controller.{}")."""
     pairs = items.items() if isinstance(items, Mapping) else [_pair(item) for item in items]
     values: dict[str, float | int | bool] = {}
     for name, value in pairs:
         if name not in types:
             raise UsageError(
-                f"--controller-set {name}: not a parameter of the controller "
+                f"{written.format(name)}: not a parameter of the controller "
                 f"(parameters: {', '.join(sorted(types)) or 'none'})"
             )
-        values[name] = _typed(name, value, types[name])
+        values[name] = _typed(name, value, types[name], written)
     return values
 
 
@@ -164,7 +178,7 @@ def _pair(item: str) -> tuple[str, str]:
     return name.strip(), text.strip()
 
 
-def _typed(name: str, value: object, kind: str) -> float | int | bool:
+def _typed(name: str, value: object, kind: str, written: str = "--controller-set {}") -> float | int | bool:
     """`value` as the controller parameter's type, or UsageError."""
     text = str(value).strip().lower()
     try:
@@ -181,5 +195,5 @@ def _typed(name: str, value: object, kind: str) -> float | int | bool:
     except ValueError:
         allowed = {"Boolean": "true or false", "Integer": "an integer", "Enumeration": "an item's number"}
         raise UsageError(
-            f"--controller-set {name}={value}: {value!r} is not allowed: use {allowed.get(kind, 'a finite number')}"
+            f"{written.format(name)}={value}: {value!r} is not allowed: use {allowed.get(kind, 'a finite number')}"
         ) from None

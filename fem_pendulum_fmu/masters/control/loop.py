@@ -28,6 +28,8 @@ from .series import COLUMNS
 # three the step summaries (both_halves reads them at the end)
 STEP_SUMMARIES = ("gap_min", "contact_force_max", "contact_impulse")
 OUTPUTS = ("theta", "omega", "gap", "contact_force", "energy.total", "energy.torque_work", *STEP_SUMMARIES)
+# the pendulum's start values unless a run gives others: hanging at rest, touching the wall
+DEFAULT_START_VALUES = {"theta0": 0.0}
 
 
 def drive(demand: float, limit: float) -> float:
@@ -70,7 +72,18 @@ class LoopRun:
 def run_loop(inputs: LoopInputs, controller: Controller) -> LoopRun:
     """Co-simulate the controller and the pendulum FMU from t = 0 to the stop time (module docstring);
     the controller is closed at the end."""
-    pendulum = NamedSlave(inputs.fmu, "pendulum", {"theta0": 0.0, **inputs.start_values})
+    pendulum = NamedSlave(inputs.fmu, "pendulum", {**DEFAULT_START_VALUES, **inputs.start_values})
+    try:
+        return run_loop_on(pendulum, inputs, controller)
+    finally:
+        pendulum.close()
+        controller.close()
+
+
+def run_loop_on(pendulum: NamedSlave, inputs: LoopInputs, controller: Controller) -> LoopRun:
+    """`run_loop` on a pendulum instance already initialised with the run's start values (so
+    inputs.fmu and inputs.start_values are not read), closing neither it nor the controller: a
+    sweep's worker reuses both for its next sample (masters/sweep/loop_run.py)."""
     names = OUTPUTS + tuple(n for n in controller.reads() if n not in OUTPUTS)
     picks = [names.index(n) for n in controller.reads()]
     vrs = [pendulum.vr[n] for n in names]
@@ -98,10 +111,8 @@ def run_loop(inputs: LoopInputs, controller: Controller) -> LoopRun:
             bar.step()
     finally:
         bar.close()
-        pendulum.close()
-        controller.close()
     table = np.array(rows, dtype=[(c, float) for c in COLUMNS])
-    return LoopRun(table, stopped, pendulum.problems)
+    return LoopRun(table, stopped, list(pendulum.problems))
 
 
 def _row(t: float, setpoint: float, reading: list[float], applied: tuple[float, float, float]) -> tuple[float, ...]:

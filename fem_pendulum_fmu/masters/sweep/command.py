@@ -3,9 +3,14 @@
     fem-pendulum sweep --param pendulum.E=1e6,1e7,2.1e11 --param theta0=0.2,0.35 \\
         --set model.fidelity=rigid --stop-time 1 --out out/sweep [--workers 2 | --scheduler tcp://HOST:8786]
 
+    fem-pendulum sweep --control --param controller.Kp=5,10,20 --param 'setpoint=step:10deg;step:20deg' \
+        --set model.fidelity=rigid --stop-time 1 --out out/tuning
+
 Writes OUT/results.parquet (one row a sample), OUT/series.parquet (the time
 series, keyed by sample_id), OUT/summary.png, and OUT/results.csv with --csv.
 Started again with the same OUT, it runs only the samples OUT does not hold.
+With --control each sample is the controller loop of `fem-pendulum control`
+(loop_command.py): its figures are the loop's metrics, its series the loop's table.
 """
 
 from __future__ import annotations
@@ -13,11 +18,18 @@ from __future__ import annotations
 import argparse
 import importlib.util
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from ..failures import IncompleteRun, UsageError, check_fmu, check_output_prefix, check_times
 from ..run_options import DEFAULT_FMU
+from .loop_command import DEFAULT_PLOT, add_loop_arguments, loop_sample_list, loop_sweep
+
+if TYPE_CHECKING:
+    from .driver import SweepSettings
+    from .loop_samples import LoopSweep
 
 EXTRA = ("dask", "distributed", "pandas", "pyarrow")
+CURVES_UP_TO = 8  # a loop sweep's plot draws a curve per value of --y up to this many values (else colour)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -27,7 +39,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="append",
         default=[],
         metavar="NAME=V1,V2,...",
-        help="a grid axis: the samples are the product of all axes (enumerations by item name)",
+        help="a grid axis: the samples are the product of all axes (enumerations by item name; with --control "
+        "also controller.NAME=V1,V2 and setpoint=S1;S2 or disturbance=S1;S2)",
     )
     parser.add_argument(
         "--set", action="append", default=[], metavar="NAME=VALUE", help="a parameter value every sample shares"
@@ -42,10 +55,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("out") / "sweep", help="output folder (resumed if it exists)")
     parser.add_argument("--csv", action="store_true", help="also write results.csv")
     parser.add_argument("--retry-failed", action="store_true", help="run again the samples that ended in error")
-    parser.add_argument("--plot", default="largest_penetration", metavar="FIGURE", help="figure of the summary plot")
+    parser.add_argument(
+        "--plot",
+        metavar="FIGURE,...",
+        help="figures of the summary plot, one panel each (default largest_penetration; with --control "
+        f"{','.join(DEFAULT_PLOT)})",
+    )
     parser.add_argument("--x", help="parameter on the plot's x axis (default: the first --param)")
     parser.add_argument("--y", help="a second parameter, shown as the y axis (figure as colour)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_loop_arguments(parser)
 
 
 def _need_extra() -> None:
@@ -69,7 +88,7 @@ def _axes(items: list[str], option: str) -> list:
     return axes
 
 
-def _samples(args: argparse.Namespace) -> list:
+def _samples(args: argparse.Namespace, loop: LoopSweep | None = None) -> list:
     from . import samples
 
     fixed = dict(_axes(args.set, "--set"))
@@ -77,20 +96,25 @@ def _samples(args: argparse.Namespace) -> list:
         raise UsageError("--set takes one value: NAME=VALUE (a list is a grid axis: --param)")
     if args.table and args.param:
         raise UsageError("give the samples as --param axes or as a --table, not both")
+    if loop is not None:
+        return loop_sample_list(args, loop, {name: values[0] for name, values in fixed.items()})
     rows = samples.read_table(args.table) if args.table else samples.grid(_axes(args.param, "--param"))
     rows = [{**row, **{name: values[0] for name, values in fixed.items()}} for row in rows]
     return samples.samples(rows, args.torque)
 
 
-def _auto_choices(chosen: list) -> list[str]:
+def _auto_choices(chosen: list, loop: bool) -> list[str]:
     """What model.fidelity = auto picks for the samples that ask for it, as lines to print: each pick,
-    how many samples, and why for the first of them (masters/failures.py auto_choice)."""
+    how many samples, and why for the first of them (masters/failures.py auto_choice). A loop sample's
+    pendulum is read as the loop starts it (loop_samples.pendulum_values)."""
     from ...fmi.interface import scene_from_values
     from ..failures import auto_choice
+    from .loop_samples import pendulum_values
 
     picks: dict[str, list[str]] = {}
     for sample in chosen:
-        choice = auto_choice(scene_from_values(sample.values)) if "model.fidelity" in sample.values else None
+        values = pendulum_values(sample.values) if loop else sample.values
+        choice = auto_choice(scene_from_values(values)) if "model.fidelity" in values else None
         if choice is not None:
             picks.setdefault(choice.fidelity, []).append(f"{sample.sample_id}: {choice.reason}")
     return [
@@ -99,28 +123,33 @@ def _auto_choices(chosen: list) -> list[str]:
     ]
 
 
-def command(args: argparse.Namespace) -> None:
-    _need_extra()
-    from .driver import SweepSettings, run_sweep
-    from .plot import FIGURES, summary_plot
+def _plot_figures(args: argparse.Namespace) -> list[str] | None:
+    """The figures --plot names, checked (None: the default, chosen once the table is there)."""
+    from .plot import FIGURES, LOOP_FIGURES
 
-    if args.plot not in FIGURES:
-        raise UsageError(f"--plot {args.plot!r}: choose one of {', '.join(FIGURES)}")
+    allowed = LOOP_FIGURES if args.control else FIGURES
+    if args.plot is None:
+        return None
+    names = [name.strip() for name in args.plot.split(",") if name.strip()]
+    wrong = [name for name in names if name not in allowed] or ([] if names else [args.plot])
+    if wrong:
+        raise UsageError(f"--plot {', '.join(map(repr, wrong))}: choose from {', '.join(allowed)}")
+    return names
+
+
+def _check(args: argparse.Namespace) -> tuple[list, SweepSettings, list[str] | None]:
+    """Every check before anything runs: the samples, the shared settings (with the loop of --control),
+    the plot's figures."""
+    from .driver import SweepSettings, kept_outputs
+
+    figures = _plot_figures(args)
     check_times(args.stop_time, args.step)
     check_fmu(args.fmu)
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers {args.workers}: give a number of worker processes >= 1 (or leave it out)")
     if args.out.exists() and not args.out.is_dir():
         raise UsageError(f"--out {str(args.out)!r} is a file: give a folder (made if missing)")
-    try:
-        chosen = _samples(args)
-    except UsageError:
-        raise
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
-    check_output_prefix(args.out / "results", "--out")  # the last check: it makes the output folder
-    for line in _auto_choices(chosen):
-        print(line)
+    loop = loop_sweep(args)
     settings = SweepSettings(
         fmu=args.fmu,
         out=args.out,
@@ -132,7 +161,46 @@ def command(args: argparse.Namespace) -> None:
         csv=args.csv,
         progress=not args.no_progress,
         retry_failed=args.retry_failed,
+        loop=loop,
     )
+    try:
+        kept_outputs(settings)
+        chosen = _samples(args, loop)
+    except UsageError:
+        raise
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    check_output_prefix(args.out / "results", "--out")  # the last check: it makes the output folder
+    return chosen, settings, figures
+
+
+def _plot(args: argparse.Namespace, table: Any, chosen: list, figures: list[str] | None) -> None:
+    """The summary plot against the swept parameters (--x, --y, or the first two that vary)."""
+    from .plot import FIGURE_UNITS, LOOP_UNITS, summary_plot
+
+    swept = [name for name in table.columns if name in chosen[0].values and table[name].nunique() > 1]
+    x = args.x or (swept[0] if swept else None)
+    if x is None:
+        return
+    y = args.y or (swept[1] if len(swept) > 1 and not args.x else None)
+    absent = [name for name in (x, y) if name is not None and name not in table.columns]
+    if absent:
+        raise UsageError(f"--x/--y {', '.join(absent)}: not a parameter of this sweep (the table is written)")
+    if figures is None and args.control:  # the default panels that have a value (no step metrics without a step)
+        ok = table[table["status"] == "ok"]
+        figures = [name for name in DEFAULT_PLOT if ok[name].notna().any()] or [DEFAULT_PLOT[0]]
+    units = LOOP_UNITS if args.control else FIGURE_UNITS
+    curves = args.control and y is not None and table[y].nunique() <= CURVES_UP_TO
+    print(summary_plot(table, figures or "largest_penetration", x, y, args.out / "summary.png", units, curves))
+
+
+def command(args: argparse.Namespace) -> None:
+    _need_extra()
+    from .driver import run_sweep
+
+    chosen, settings, figures = _check(args)
+    for line in _auto_choices(chosen, settings.loop is not None):
+        print(line)
     try:
         table = run_sweep(chosen, settings)
     except ValueError as exc:  # a folder that holds a sweep with other settings
@@ -142,14 +210,7 @@ def command(args: argparse.Namespace) -> None:
         f"{len(table)} samples: {ok} ok, {len(table) - ok} error; wrote {args.out / 'results.parquet'} and "
         f"{args.out / 'series.parquet'}"
     )
-    swept = [name for name in table.columns if name in chosen[0].values and table[name].nunique() > 1]
-    x = args.x or (swept[0] if swept else None)
-    if x is not None:
-        y = args.y or (swept[1] if len(swept) > 1 and not args.x else None)
-        absent = [name for name in (x, y) if name is not None and name not in table.columns]
-        if absent:
-            raise UsageError(f"--x/--y {', '.join(absent)}: not a parameter of this sweep (the table is written)")
-        print(summary_plot(table, args.plot, x, y, args.out / "summary.png"))
+    _plot(args, table, chosen, figures)
     for row in table[table["status"] != "ok"].head(10).itertuples():
         print(f"  {row.sample_id}: {row.message}")
     if ok < len(table):

@@ -61,13 +61,14 @@ class SampleTask:
 @dataclass(frozen=True)
 class SampleResult:
     """A finished sample: its status, the message of a failure, the wall time of the run, its figures
-    and its time series (time and the requested outputs; None when the run produced none)."""
+    (an open-loop sample's Figures, a loop sample's metrics by name: loop_run.py) and its time series
+    (time and the requested outputs; None when the run produced none)."""
 
     sample_id: str
     status: Status
     message: str = ""
     wall_time: float = math.nan
-    figures: Figures = field(default_factory=Figures)
+    figures: Figures | dict[str, float] = field(default_factory=Figures)
     series: np.ndarray | None = field(default=None, compare=False)
 
 

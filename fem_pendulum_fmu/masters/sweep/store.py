@@ -1,6 +1,7 @@
 """A sweep's output folder: what is done, one file per finished sample while it runs, two tables at the end.
 
-    OUT/sweep.json        the settings every sample shares (stop time, step, outputs, the FMU's sha256)
+    OUT/sweep.json        the settings every sample shares (stop time, step, outputs, the FMU's sha256;
+                          a loop sweep's: also the controller FMU's sha256, the wiring, the drive limit)
     OUT/parts/ID.json     a finished sample's row, written when its result arrives (last, as the marker)
     OUT/parts/ID.parquet  its time series
     OUT/results.parquet   one row a sample (and results.csv on request)
@@ -38,15 +39,16 @@ def _atomic(path: Path, write: Any) -> None:
 
 
 def check_settings(out: Path, settings: dict[str, Any]) -> None:
-    """Record the sweep's settings in a new folder, or check that a restart uses the folder's own."""
+    """Record the sweep's settings in a new folder, or check that a restart uses the folder's own (every
+    key of either: an open-loop sweep does not resume a loop sweep's folder, nor the other way round)."""
     out.mkdir(parents=True, exist_ok=True)
     path = out / SETTINGS
     if path.is_file():
         held = json.loads(path.read_text())
         differ = [
-            f"{key}: {held.get(key)!r} there, {value!r} now"
-            for key, value in settings.items()
-            if held.get(key) != value
+            f"{key}: {held.get(key)!r} there, {settings.get(key)!r} now"
+            for key in {**held, **settings}
+            if held.get(key) != settings.get(key)
         ]
         if differ:
             raise ValueError(
