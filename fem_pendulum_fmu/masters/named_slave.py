@@ -29,23 +29,30 @@ class NamedSlave:
         callbacks.allocateMemory = defaultCallbacks.allocateMemory
         callbacks.freeMemory = defaultCallbacks.freeMemory
         self.fmu.instantiate(callbacks=callbacks)
-        self.fmu.setupExperiment(startTime=0.0)
-        self.fmu.enterInitializationMode()
-        for key, value in start_values.items():
-            self.set(key, value)
-        self.fmu.exitInitializationMode()
+        try:
+            self.fmu.setupExperiment(startTime=0.0)
+            self.fmu.enterInitializationMode()
+            for key, value in start_values.items():
+                self.set(key, value)
+            self.fmu.exitInitializationMode()
+        except BaseException:  # a refused start value: free the instance and its folder, then report
+            self._free()
+            raise
 
     def _log(self, environment: object, instance: object, status: int, category: object, message: bytes) -> None:
         """Keep the messages of status Discard (2) and above; print nothing (the master reports them)."""
         if status >= 2:
             self.problems.append((message or b"").decode(errors="replace"))
 
-    def set(self, name: str, value: float | int | bool) -> None:
+    def set(self, name: str, value: float | int | bool | str) -> None:
+        """Set `name` through the setter of its declared type (a String parameter as text)."""
         typ = self.types[name]
         if typ == "Real":
             self.fmu.setReal([self.vr[name]], [float(value)])
         elif typ == "Boolean":
             self.fmu.setBoolean([self.vr[name]], [bool(value)])
+        elif typ == "String":
+            self.fmu.setString([self.vr[name]], [str(value)])
         else:
             self.fmu.setInteger([self.vr[name]], [int(value)])
 
@@ -53,8 +60,11 @@ class NamedSlave:
         return self.fmu.getReal([self.vr[n] for n in names])
 
     def close(self) -> None:
+        self.fmu.terminate()
+        self._free()
+
+    def _free(self) -> None:
         import shutil
 
-        self.fmu.terminate()
         self.fmu.freeInstance()  # frees the instance and unloads the library
         shutil.rmtree(self.dir, ignore_errors=True)

@@ -71,8 +71,12 @@ class LoopRun:
 
 def run_loop(inputs: LoopInputs, controller: Controller) -> LoopRun:
     """Co-simulate the controller and the pendulum FMU from t = 0 to the stop time (module docstring);
-    the controller is closed at the end."""
-    pendulum = NamedSlave(inputs.fmu, "pendulum", {**DEFAULT_START_VALUES, **inputs.start_values})
+    the controller is closed at the end, also when the pendulum cannot be instantiated."""
+    try:
+        pendulum = NamedSlave(inputs.fmu, "pendulum", {**DEFAULT_START_VALUES, **inputs.start_values})
+    except BaseException:
+        controller.close()
+        raise
     try:
         return run_loop_on(pendulum, inputs, controller)
     finally:

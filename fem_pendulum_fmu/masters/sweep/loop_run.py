@@ -109,7 +109,7 @@ class LoadedLoop:
         slave.fmu.setupExperiment(startTime=0.0)  # then as NamedSlave.__init__
         slave.fmu.enterInitializationMode()
         for name, value in values.items():
-            slave.set(name, value)  # type: ignore[arg-type]  # no String values: loop_samples refuses them
+            slave.set(name, value)  # no String values: loop_samples refuses them
         slave.fmu.exitInitializationMode()
         return slave
 
