@@ -1,6 +1,7 @@
 """The coupling error of co-simulation: what first- and second-order hold buy over zero-order hold.
 
     python benchmarks/coupling.py [--dist dist] [--stop-time 2] [--fidelity rigid] [--plot PNG] [--quick]
+                                  [--steps 1 2 5 ...] [--reference-step 0.05]
 
 Two couplings of FemPendulum.fmu (and PidController.fmu from the same folder, as `fem-pendulum
 build` writes them), each run with fmpy's FMU2Slave by this script's own fixed-step master:
@@ -255,6 +256,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--fidelity", choices=tuple(FIDELITY_INDEX), default="rigid")
     parser.add_argument("--plot", type=Path, help="write the error against the step here (PNG)")
     parser.add_argument("--quick", action="store_true", help="0.2 s, 2 and 10 ms, reference 0.2 ms")
+    parser.add_argument("--steps", type=float, nargs="+", help="communication steps in ms (default 1 2 5 10 20)")
+    parser.add_argument("--reference-step", type=float, help="the reference's step in ms (default 0.05)")
     args = parser.parse_args(argv)
     for name in ("FemPendulum.fmu", "PidController.fmu"):
         if not (args.dist / name).is_file():
@@ -264,6 +267,8 @@ def main(argv: list[str] | None = None) -> None:
         if args.quick
         else (args.stop_time, STEPS, REFERENCE_STEP)
     )
+    steps = tuple(x * 1e-3 for x in args.steps) if args.steps else steps
+    reference = args.reference_step * 1e-3 if args.reference_step else reference
     print(f"fidelity {args.fidelity}, {stop:g} s; load average before: {load()}")
     found = study(args.dist, args.fidelity, float(stop), tuple(steps), float(reference))
     for name, rows in found.items():

@@ -43,7 +43,7 @@ def output_rates(slave: DerivativeSlave, vrs: Sequence[int], order: int) -> list
     return [values[i * order : (i + 1) * order] for i in range(len(vrs))]
 
 
-def set_input_rates(slave: DerivativeSlave, vrs: Sequence[int], rates: Sequence[Rates]) -> None:
+def set_input_rates(slave: DerivativeSlave, vrs: Sequence[int], rates: Sequence[Sequence[float]]) -> None:
     """Set each input's derivatives, orders 1 to len(its rates), for the slave's next doStep (an input
     with none is held: nothing is set)."""
     refs = [vr for vr, r in zip(vrs, rates, strict=True) for _ in r]

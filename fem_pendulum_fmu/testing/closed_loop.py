@@ -9,10 +9,11 @@ from pathlib import Path
 from typing import Any
 
 from ..masters.control.controllers import FunctionController, Measurements, controller_fmu
+from ..masters.control.hold import fmu_hold_order, loop_hold, parse_hold
 from ..masters.control.loop import LoopInputs, run_loop
 from ..masters.control.metrics import Metrics
 from ..masters.control.signals import Signal, as_signal
-from ..masters.failures import IncompleteRun, UsageError, check_start_values, check_times
+from ..masters.failures import IncompleteRun, UsageError, check_fmu, check_start_values, check_times
 from .fmus import default_fmu
 
 ControllerLike = Path | str | Callable[[float, Measurements], float]
@@ -50,6 +51,7 @@ def closed_loop(
     connect: Sequence[str] = (),
     controller_parameters: Mapping[str, object] | None = None,
     drive_limit: float = 15.0,
+    hold: int | str = "auto",
 ) -> LoopResult:
     """Run `controller` in the loop with the pendulum FMU and return the series and its metrics.
 
@@ -60,6 +62,8 @@ def closed_loop(
         (masters/control/signals.py); angles in rad, torques in N.m.
     pendulum: start values of the pendulum FMU's parameters, as --set; fidelity: rigid, reduced, fem or auto.
     fmu: the pendulum FMU; default dist/FemPendulum.fmu, built on first use.
+    hold: 0, 1, 2 or "auto", how the torque and the controller's inputs vary over a step
+        (masters/control/hold.py): auto takes the highest order both FMUs declare; a function: 0.
     Raises UsageError for bad arguments and IncompleteRun when the pendulum stops before stop_time.
     """
     check_times(stop_time, step)
@@ -67,10 +71,16 @@ def closed_loop(
         raise UsageError(f"drive_limit {drive_limit!r} is not allowed: give a finite torque > 0 (N.m)")
     target = as_signal(setpoint, "angle", "setpoint")
     load = as_signal(disturbance, "torque", "disturbance")
-    fmu_path = Path(fmu) if fmu is not None else default_fmu("FemPendulum.fmu")
+    fmu_path = check_fmu(Path(fmu), "fmu") if fmu is not None else default_fmu("FemPendulum.fmu")
     values = pendulum_values(pendulum or {}, fidelity)
+    order = parse_hold(hold, "hold")
     law = _controller(controller, fmu_path, connect, controller_parameters or {})
-    inputs = LoopInputs(fmu_path, target, load, stop_time, step, values, drive_limit, progress=False)
+    try:
+        loop_hold(order, fmu_hold_order(fmu_path), law.hold, law.description)
+    except UsageError:
+        law.close()
+        raise
+    inputs = LoopInputs(fmu_path, target, load, stop_time, step, values, drive_limit, progress=False, hold=order)
     run = run_loop(inputs, law)
     if run.stopped is not None:
         raise IncompleteRun(run.stopped)

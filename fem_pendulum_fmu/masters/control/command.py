@@ -2,7 +2,8 @@
 
     fem-pendulum control [--controller dist/PidController.fmu] [--connect FROM=TO ...]
                          [--controller-set Kp=20 ...] [--setpoint sine:20deg,0.75]
-                         [--disturbance step:2] [--drive-limit 15] [--set NAME=VALUE ...]
+                         [--disturbance step:2] [--drive-limit 15] [--hold auto]
+                         [--set NAME=VALUE ...]
 
 Defaults: the project's PID FMU with its own gains (Kp 10, Ki 4, Kd 0.15, u_max 15), a 20-degree
 sine set-point at 0.75 Hz, no disturbance and a drive that limits the torque to 15 N.m. The wall
@@ -69,6 +70,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add("--disturbance", default="0", help="a torque added at the hinge (N.m), in the forms of --setpoint")
     add("--drive-limit", type=float, default=15.0, help="the drive delivers the demand up to this torque (N.m)")
+    add(
+        "--hold",
+        default="auto",
+        metavar="{auto,0,1,2}",
+        help="how values vary over a step: 0 held, 1 ramps, 2 parabolas from the FMUs' output derivatives "
+        "(docs/coupling.md); auto (default): the highest order both FMUs declare",
+    )
     add("--out", type=Path, default=Path("out") / "control", help="prefix of the CSV, PNG and JSON written")
 
 
@@ -77,6 +85,7 @@ def command(args: argparse.Namespace) -> None:
     IncompleteRun (after writing) when an FMU stopped before the stop time."""
     from ..open_loop import parse_start_values
     from .controllers import controller_fmu
+    from .hold import fmu_hold_order, loop_hold, parse_hold
     from .loop import LoopInputs, run_loop
     from .signals import parse_signal
 
@@ -90,11 +99,13 @@ def command(args: argparse.Namespace) -> None:
     values = {"theta0": 0.0, **parse_start_values(args.set)}
     scene = check_start_values(values)
     spec = controller_fmu(args.controller, args.connect, args.controller_set)
+    hold = parse_hold(args.hold)
+    loop_hold(hold, fmu_hold_order(args.fmu), spec.hold, args.controller.name)
     check_output_prefix(args.out)  # the last check: it makes the output folder
     choice = fidelity_choice(scene)
     if choice is not None:
         print(choice)
-    inputs = LoopInputs(args.fmu, setpoint, disturbance, args.stop_time, args.step, values, args.drive_limit)
+    inputs = LoopInputs(args.fmu, setpoint, disturbance, args.stop_time, args.step, values, args.drive_limit, hold=hold)
     run = run_loop(inputs, spec.open())
     wrote = write_outputs(run.table, args, setpoint)
     if run.stopped is not None and "KeyboardInterrupt" in run.stopped:  # Ctrl-C inside an FMU's Python
@@ -129,6 +140,7 @@ def write_outputs(table: np.ndarray, args: argparse.Namespace, setpoint: Signal)
         "connect": args.connect,
         "controller_set": args.controller_set,
         "disturbance": args.disturbance,
+        "hold": args.hold,
         **metrics_json(_metrics(table, args, setpoint)),
     }
     path = args.out.with_suffix(".json")

@@ -9,8 +9,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
+from ..coupling import Rates, output_rates, set_input_rates
 from ..failures import UsageError
 from .connections import SETPOINT, Wiring, check_wiring, default_connections, parse_connection
+from .hold import hold_order_of
 
 if TYPE_CHECKING:
     from ..named_slave import NamedSlave
@@ -39,10 +41,22 @@ class Controller(Protocol):
     """The loop's view of a controller (loop.py)."""
 
     description: str
+    hold: int  # the highest hold order it takes part in (hold.py); 0: its demand is held over a step
 
-    def demand(self, m: Measurements, step: float, reading: Sequence[float]) -> float:
+    def demand(
+        self,
+        m: Measurements,
+        step: float,
+        reading: Sequence[float],
+        rates: Sequence[Rates] = (),
+        setpoint: Sequence[float] = (),
+    ) -> float:
         """The torque demanded over [m.time, m.time + step]; `reading` holds the pendulum outputs
-        the loop read at m.time, in the order of `reads`."""
+        the loop read at m.time, in the order of `reads`, `rates` their time derivatives there and
+        `setpoint` the set-point's (both empty with hold order 0)."""
+
+    def demand_rates(self, order: int) -> Rates:
+        """The time derivatives, orders 1 to `order`, of the demand the last `demand` gave."""
 
     def reads(self) -> tuple[str, ...]:
         """Pendulum outputs this controller needs beyond Measurements."""
@@ -56,8 +70,16 @@ class FunctionController:
     def __init__(self, law: Callable[[float, Measurements], float]) -> None:
         self.law = law
         self.description = getattr(law, "__qualname__", type(law).__name__)
+        self.hold = 0  # a function gives a value, no derivatives
 
-    def demand(self, m: Measurements, step: float, reading: Sequence[float]) -> float:
+    def demand(
+        self,
+        m: Measurements,
+        step: float,
+        reading: Sequence[float],
+        rates: Sequence[Rates] = (),
+        setpoint: Sequence[float] = (),
+    ) -> float:
         value = self.law(m.time, m)
         torque = float(value)
         if not math.isfinite(torque):
@@ -66,6 +88,9 @@ class FunctionController:
                 "it must return a finite torque (N.m)"
             )
         return torque
+
+    def demand_rates(self, order: int) -> Rates:
+        return [0.0] * order
 
     def reads(self) -> tuple[str, ...]:
         return ()
@@ -91,6 +116,7 @@ class FmuController:
 
         self.slave = slave if slave is not None else NamedSlave(path, "controller", dict(parameters))
         self.description = path.name
+        self.hold = hold_order_of(self.slave.md)
         self.wiring = wiring
         self._torque_vr = [self.slave.vr[wiring.torque_from]]
         self._vrs = [self.slave.vr[c.target.removeprefix("controller.")] for c in wiring.inputs]
@@ -99,11 +125,23 @@ class FmuController:
             None if c.source == SETPOINT else reads.index(c.source.removeprefix("pendulum.")) for c in wiring.inputs
         ]
 
-    def demand(self, m: Measurements, step: float, reading: Sequence[float]) -> float:
+    def demand(
+        self,
+        m: Measurements,
+        step: float,
+        reading: Sequence[float],
+        rates: Sequence[Rates] = (),
+        setpoint: Sequence[float] = (),
+    ) -> float:
         fmu = self.slave.fmu
         fmu.setReal(self._vrs, [m.setpoint if k is None else reading[k] for k in self._picks])
+        if rates or setpoint:
+            set_input_rates(fmu, self._vrs, [setpoint if k is None else rates[k] for k in self._picks])
         fmu.doStep(m.time, step)
         return fmu.getReal(self._torque_vr)[0]
+
+    def demand_rates(self, order: int) -> Rates:
+        return output_rates(self.slave.fmu, self._torque_vr, order)[0]
 
     def reads(self) -> tuple[str, ...]:
         return self.wiring.pendulum_outputs()
@@ -119,6 +157,7 @@ class ControllerFmuSpec:
     path: Path
     wiring: Wiring
     parameters: dict[str, float | int | bool]
+    hold: int = 0  # the highest hold order the FMU declares (hold.py)
 
     def open(self) -> FmuController:
         return FmuController(self.path, self.wiring, self.parameters)
@@ -150,7 +189,7 @@ def controller_fmu(
     wires = [parse_connection(c) for c in connect] or default_connections(inputs, outputs, pendulum_outputs)
     wiring = check_wiring(wires, inputs, outputs, pendulum_outputs)
     types = {v.name: v.type for v in md.modelVariables if v.causality == "parameter"}
-    return ControllerFmuSpec(Path(path), wiring, parameter_values(parameters, types))
+    return ControllerFmuSpec(Path(path), wiring, parameter_values(parameters, types), hold_order_of(md))
 
 
 def parameter_values(

@@ -112,6 +112,22 @@ class Signal:
             return _interpolate(self.times, self.values, t)
         return self._call_function(t)
 
+    def rates(self, t: float, order: int) -> list[float]:
+        """The signal's time derivatives of orders 1 to `order` just after t (rad/s, rad/s^2 or N.m/s,
+        ...), for a loop that passes them on (hold.py): exact for the forms, a table's slope from t
+        on; zeros for a step (it jumps, it does not move) and for a function (none is known)."""
+        kind, rates = self.kind, [0.0] * order
+        if kind == "sine" and order:
+            w = 2.0 * math.pi * self.frequency
+            rates[0] = self.amplitude * w * math.cos(w * t)
+            if order > 1:
+                rates[1] = -self.amplitude * w * w * math.sin(w * t)
+        elif kind == "ramp" and order and t >= 0.0:
+            rates[0] = self.rate
+        elif kind == "table" and order:
+            rates[0] = _slope(self.times, self.values, t)
+        return rates
+
     def _call_function(self, t: float) -> float:
         """The user's function at t, checked to be a finite number (a NaN set-point would poison the run)."""
         assert self.function is not None
@@ -178,6 +194,14 @@ def _interpolate(times: tuple[float, ...], values: tuple[float, ...], t: float) 
     t0, t1 = times[i - 1], times[i]
     v0 = values[i - 1]
     return v0 + (values[i] - v0) * (t - t0) / (t1 - t0)
+
+
+def _slope(times: tuple[float, ...], values: tuple[float, ...], t: float) -> float:
+    """The slope of the table's row interval that starts at or before t and ends after it (0 outside)."""
+    i = bisect.bisect_right(times, t)
+    if i == 0 or i == len(times):
+        return 0.0
+    return (values[i] - values[i - 1]) / (times[i] - times[i - 1])
 
 
 def parse_signal(text: str, quantity: Quantity, name: str | None = None) -> Signal:

@@ -120,7 +120,8 @@ def _tasks(
     samples: list[Sample], settings: SweepSettings, outputs: tuple[str, ...], wiring: Wiring | None
 ) -> list[Task]:
     if settings.loop is not None and wiring is not None:
-        shared = (wiring, settings.stop_time, settings.step, settings.loop.drive_limit, outputs)
+        loop = settings.loop
+        shared = (wiring, settings.stop_time, settings.step, loop.drive_limit, outputs, loop.hold)
         return [loop_task(s, *shared) for s in samples]
     torques = {path: read_torque_csv(Path(path)) for path in {s.torque for s in samples} if path}
     return [
@@ -200,6 +201,7 @@ def _record(settings: SweepSettings, outputs: tuple[str, ...], digest: str) -> t
     record["controller_sha256"] = hashlib.sha256(settings.loop.controller.read_bytes()).hexdigest()
     record["connect"] = wires
     record["drive_limit"] = settings.loop.drive_limit
+    record["hold"] = settings.loop.hold
     return record, wiring
 
 

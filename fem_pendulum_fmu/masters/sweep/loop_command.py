@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..control.hold import fmu_hold_order, loop_hold, parse_hold
 from ..failures import UsageError, check_fmu
 from .loop_samples import (
     CONTROLLER,
@@ -25,7 +26,7 @@ from .loop_samples import (
 )
 from .samples import Sample, grid, read_table
 
-LOOP_OPTIONS = ("controller", "connect", "controller_set", "setpoint", "disturbance", "drive_limit")
+LOOP_OPTIONS = ("controller", "connect", "controller_set", "setpoint", "disturbance", "drive_limit", "hold")
 DEFAULT_PLOT = ("rms_error", "overshoot", "settling_time", "max_contact_force")
 
 
@@ -54,6 +55,7 @@ def add_loop_arguments(parser: argparse.ArgumentParser) -> None:
     add("--disturbance", help="with --control: the hinge torque added in every sample (N.m; default 0)")
     limit = f"with --control: the drive's torque limit (N.m; default {DEFAULT_DRIVE_LIMIT:g})"
     add("--drive-limit", type=float, help=limit)
+    add("--hold", metavar="{auto,0,1,2}", help="with --control: the loop's hold order, as `fem-pendulum control`")
 
 
 def loop_sweep(args: argparse.Namespace) -> LoopSweep | None:
@@ -68,8 +70,10 @@ def loop_sweep(args: argparse.Namespace) -> LoopSweep | None:
     controller = args.controller if args.controller is not None else args.fmu.parent / "PidController.fmu"
     check_fmu(controller, "--controller")
     drive_limit = DEFAULT_DRIVE_LIMIT if args.drive_limit is None else args.drive_limit
-    loop = LoopSweep(controller, tuple(args.connect), drive_limit)
-    loop.spec()
+    hold = parse_hold("auto" if args.hold is None else args.hold)
+    loop = LoopSweep(controller, tuple(args.connect), drive_limit, hold)
+    spec = loop.spec()
+    loop_hold(hold, fmu_hold_order(check_fmu(args.fmu)), spec.hold, controller.name)
     return loop
 
 

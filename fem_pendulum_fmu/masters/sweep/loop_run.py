@@ -33,6 +33,7 @@ from ...fmi.interface import scene_from_values
 from ...physics.scene import problems
 from ..control.connections import Wiring
 from ..control.controllers import FmuController
+from ..control.hold import HoldChoice
 from ..control.loop import LoopInputs, LoopRun, run_loop_on
 from ..control.metrics import METRIC_NAMES, loop_metrics
 from ..control.signals import Signal
@@ -61,10 +62,17 @@ class LoopTask:
     step: float
     drive_limit: float
     outputs: tuple[str, ...]
+    hold: HoldChoice = "auto"
 
 
 def loop_task(
-    sample: Sample, wiring: Wiring, stop_time: float, step: float, drive_limit: float, outputs: tuple[str, ...]
+    sample: Sample,
+    wiring: Wiring,
+    stop_time: float,
+    step: float,
+    drive_limit: float,
+    outputs: tuple[str, ...],
+    hold: HoldChoice = "auto",
 ) -> LoopTask:
     """The task of a loop sample (its signals read here, on the client: a CSV file need not reach the workers)."""
     values = sample.values
@@ -79,6 +87,7 @@ def loop_task(
         step,
         drive_limit,
         outputs,
+        hold,
     )
 
 
@@ -127,6 +136,7 @@ class LoadedLoop:
             task.pendulum,
             task.drive_limit,
             progress=False,
+            hold=task.hold,
         )
         return run_loop_on(pendulum, inputs, controller)
 

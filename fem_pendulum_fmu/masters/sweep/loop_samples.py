@@ -27,6 +27,7 @@ from typing import cast
 from ...fmi import interface
 from ..control.command import DEFAULT_SETPOINT
 from ..control.controllers import ControllerFmuSpec, controller_fmu, parameter_values
+from ..control.hold import HoldChoice
 from ..control.loop import DEFAULT_START_VALUES
 from ..control.signals import Quantity, Signal, parse_signal
 from ..failures import UsageError
@@ -42,11 +43,13 @@ DEFAULT_DRIVE_LIMIT = 15.0  # N.m, as `fem-pendulum control`
 @dataclass(frozen=True)
 class LoopSweep:
     """What every sample of a loop sweep shares: the controller FMU, its wiring (`--connect FROM=TO`
-    items; none: by name, as `fem-pendulum control`) and the drive's torque limit (N.m)."""
+    items; none: by name, as `fem-pendulum control`), the drive's torque limit (N.m) and the hold
+    order (masters/control/hold.py)."""
 
     controller: Path
     connect: tuple[str, ...] = ()
     drive_limit: float = DEFAULT_DRIVE_LIMIT
+    hold: HoldChoice = "auto"
 
     def spec(self) -> ControllerFmuSpec:
         """The controller FMU and its wiring, checked (masters/control/controllers.py); UsageError."""
