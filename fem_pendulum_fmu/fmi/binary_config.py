@@ -48,9 +48,11 @@ def settable_in(causality: str, variability: str, initial: str | None) -> str:
 
 
 def described(causality: str, variability: str) -> str:
-    """What the variable is, for the binary's messages: "an output", "a fixed parameter"."""
+    """What the variable is, for the binary's messages: "an output", "a discrete output", "a fixed parameter"."""
     if causality == "parameter":
         return f"a {variability} parameter"
+    if causality == "output" and variability == "discrete":
+        return "a discrete output"
     return {"input": "an input", "output": "an output", "calculatedParameter": "a calculated parameter"}.get(
         causality, f"a {causality} variable"
     )

@@ -58,8 +58,8 @@ const char *derivatives_problem(const fmi2ValueReference vr[], size_t n, const f
             return why;
         }
         if (var->role != role) {
-            snprintf(why, size, "%s (value reference %u) is not %s: only those have time derivatives here",
-                     var->name, vr[k], wanted);
+            snprintf(why, size, "%s (value reference %u) is %s, not %s: only those have time derivatives here",
+                     var->name, vr[k], var->what, wanted);
             return why;
         }
         if (order[k] < 1 || order[k] > max_order) {
