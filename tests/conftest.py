@@ -26,6 +26,20 @@ def fmus(tmp_path_factory) -> tuple[Path, Path]:
     return out / "FemPendulum.fmu", out / "PidController.fmu"
 
 
+@pytest.fixture(scope="session")
+def pd_fmu(tmp_path_factory) -> Path:
+    """tests/pd_controller_under_test.py built by pythonfmu's own builder (its binary, not the project's), in a
+    child process: in this one, once a pythonfmu FMU has run, `pythonfmu` may be the copy inside that FMU's
+    extracted resources, whose builder has no binaries to pack."""
+    out = tmp_path_factory.mktemp("pd")
+    script = Path(__file__).resolve().parent / "pd_controller_under_test.py"
+    run = subprocess.run(
+        [sys.executable, "-m", "pythonfmu", "build", "-f", str(script), "-d", str(out)], capture_output=True, text=True
+    )
+    assert run.returncode == 0, run.stdout + run.stderr
+    return out / "PdControllerUnderTest.fmu"
+
+
 # The slow lane's parametrized cases (whole tests carry @pytest.mark.slow in their files): the cases that took
 # 4 s or more in a full run of the suite on the 2-core machine while two other suites ran (2026-12-01; about 2 s of
 # CPU each), so that `pytest -m "not slow"` stays under 2 minutes. The cheaper cases of the same tests stay fast.

@@ -17,7 +17,6 @@ from fem_pendulum_fmu.masters.control.signals import Signal, parse_signal
 from fem_pendulum_fmu.masters.failures import UsageError
 from fem_pendulum_fmu.testing import closed_loop
 
-HERE = Path(__file__).resolve().parent
 CLI = str(Path(sys.executable).parent / "fem-pendulum")
 REFERENCE_STEP = 2e-4
 # the PID FMU tracking a sine with no wall, so no impact decides the error (docs/coupling.md says why)
@@ -67,23 +66,15 @@ def test_a_function_controller_is_held_and_cannot_be_asked_for_more(fmus):
         ("2", "control: error: hold order 2 is not possible: PdControllerUnderTest.fmu takes 0 at most"),
     ],
 )
-def test_a_hold_the_fmus_cannot_take_is_one_line_and_exit_2(fmus, pd_fmu_path, tmp_path, hold, message):
+def test_a_hold_the_fmus_cannot_take_is_one_line_and_exit_2(fmus, pd_fmu, tmp_path, hold, message):
     run = subprocess.run(
-        [CLI, "control", "--fmu", str(fmus[0]), "--controller", str(pd_fmu_path), "--hold", hold,
+        [CLI, "control", "--fmu", str(fmus[0]), "--controller", str(pd_fmu), "--hold", hold,
          "--stop-time", "0.01", "--out", "out/x"],
         cwd=tmp_path, capture_output=True, text=True,
     )  # fmt: skip
     assert run.returncode == 2 and len(run.stderr.strip().splitlines()) == 1, run.stderr
     assert message in run.stderr
     assert not (tmp_path / "out" / "x.csv").exists()
-
-
-@pytest.fixture(scope="module")
-def pd_fmu_path(tmp_path_factory) -> Path:
-    """A controller FMU built by pythonfmu's own builder: it declares no input interpolation."""
-    from pythonfmu.builder import FmuBuilder
-
-    return Path(FmuBuilder.build_FMU(HERE / "pd_controller_under_test.py", dest=tmp_path_factory.mktemp("pd")))
 
 
 @pytest.mark.parametrize("text", ["sine:20deg,0.75", "ramp:0.3", "step:0.2,0.5", "0.1", "sine:1.5,3"])

@@ -14,7 +14,6 @@ import pytest
 from fem_pendulum_fmu.masters.control.series import COLUMNS
 from fem_pendulum_fmu.testing import closed_loop
 
-HERE = Path(__file__).resolve().parent
 CLI = str(Path(sys.executable).parent / "fem-pendulum")
 KP, KD = 100.0, 0.4  # Kp this high saturates the 15 N.m drive at the start of a 10-degree step
 WIRES = [
@@ -23,15 +22,6 @@ WIRES = [
     "setpoint=controller.setpoint",
     "controller.torque=pendulum.torque",
 ]
-
-
-@pytest.fixture(scope="module")
-def pd_fmu(tmp_path_factory) -> Path:
-    """tests/pd_controller_under_test.py built by pythonfmu's own builder (its binary, not the project's)."""
-    from pythonfmu.builder import FmuBuilder
-
-    out = tmp_path_factory.mktemp("pd")
-    return Path(FmuBuilder.build_FMU(HERE / "pd_controller_under_test.py", dest=out))
 
 
 def pd_law(t: float, m) -> float:

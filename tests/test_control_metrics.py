@@ -189,6 +189,16 @@ def test_the_steady_state_error_is_the_mean_error_over_the_last_tenth_of_the_run
     assert metrics_of(overshooting)["steady_state_error"] == pytest.approx(-0.02, rel=1e-12)
 
 
+def test_a_set_point_that_moves_at_the_end_has_no_steady_state_error():
+    # a sine set-point tracked with a lag: its error over the last tenth is a swing, not a steady state
+    moving = metrics_of(loop_table(1.0, setpoint=lambda t: 0.3 * np.sin(2 * np.pi * t), theta=0.0))
+    assert "steady_state_error" not in moving and "rms_error" in moving
+    assert moving.missing["steady_state_error"].startswith("the set-point moves over the last 10% of the run (")
+    # one that stops moving before the last tenth has one
+    settled = metrics_of(loop_table(1.0, setpoint=lambda t: np.minimum(t, 0.8), theta=0.79))
+    assert settled["steady_state_error"] == pytest.approx(0.01, rel=1e-12)
+
+
 def contact_table():
     """Two impacts: rows 240-242 (impulses 0.01 + 0.03 + 0.005 N.s, largest force 800 N in row 241) and rows
     700-702 (0.02 + 0.02 N.s and a last step seen by its impulse alone, 4e-6 N.s; largest force 400 N); row 0

@@ -11,8 +11,9 @@ instant, when):
 
 - rms_error (rad): root mean square of the error setpoint - theta over the rows t_0 .. t_n;
 - max_error (rad): the largest |setpoint - theta|, at the time of the row it is in;
-- steady_state_error (rad): the mean error over the rows of the last 10 % of the run (signed;
-  meaningful when the set-point holds still at the end);
+- steady_state_error (rad): the mean error over the rows of the last 10 % of the run (signed);
+  measured only where the set-point holds still over those rows (a sine's or a ramp's has no
+  steady state: `missing` says so);
 - for a step set-point (Signal kind "step"), the response theta takes from its value at the step's
   first row, theta_s, to its final value theta_f, the mean theta over the last 10 % of the run (the
   step is theta_f - theta_s; none if it is 0), as a control textbook measures it, so that a
@@ -138,6 +139,7 @@ def loop_metrics(table: Any, *, step_size: float, drive_limit: float, setpoint: 
     missing: dict[str, str] = {}
     error = columns["setpoint"] - columns["theta"]
     _tracking(time, error, values, times)
+    _steady_state(time, columns["setpoint"], error, values, missing)
     _step_response(time, columns["theta"], setpoint, values, times, missing)
     _contacts(time, columns["contact_force_max"], columns["contact_impulse"], values, times)
     lengths = np.diff(time)
@@ -189,11 +191,25 @@ def _column_names(table: Any) -> set[str] | None:
 
 
 def _tracking(time: np.ndarray, error: np.ndarray, values: dict[str, float], times: dict[str, float]) -> None:
-    """rms_error, max_error (and when), steady_state_error over the last STEADY_STATE_SHARE of the run."""
+    """rms_error, max_error (and when)."""
     values["rms_error"] = float(np.sqrt(np.mean(error**2)))
     k = int(np.argmax(np.abs(error)))
     values["max_error"], times["max_error"] = float(abs(error[k])), float(time[k])
-    values["steady_state_error"] = float(np.mean(error[steady_rows(time)]))
+
+
+def _steady_state(
+    time: np.ndarray, setpoint: np.ndarray, error: np.ndarray, values: dict[str, float], missing: dict[str, str]
+) -> None:
+    """steady_state_error over the last STEADY_STATE_SHARE of the run, where the set-point holds still there."""
+    rows = steady_rows(time)
+    held = setpoint[rows]
+    if np.ptp(held) > 0.0:
+        missing["steady_state_error"] = (
+            f"the set-point moves over the last {STEADY_STATE_SHARE:.0%} of the run "
+            f"({held.min():.4g} to {held.max():.4g} rad): there is no steady state to measure"
+        )
+        return
+    values["steady_state_error"] = float(np.mean(error[rows]))
 
 
 def steady_rows(time: np.ndarray) -> np.ndarray:
