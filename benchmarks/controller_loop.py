@@ -1,5 +1,7 @@
 """Cost per communication step of the controller loop: the PID FMU against the same PID law as a
-Python function (fem_pendulum_fmu.testing.closed_loop), on the rigid and the fem fidelity.
+Python function (fem_pendulum_fmu.testing.closed_loop), on the rigid and the fem fidelity; both held
+over each step (hold order 0), and the PID FMU with second-order hold (`pid_hold2`, the default of
+`fem-pendulum control` with the PID FMU: the output derivatives cost a share of each step).
 
     python benchmarks/controller_loop.py [--fmus dist] [--repeat 5] [--stop-time 2] [--old PATH]
 
@@ -83,8 +85,8 @@ def new_loop(kind: str, values: dict, fmus: Path, stop_time: float):
     from fem_pendulum_fmu.masters.pid.fem_pendulum_pid_entry import Pid
 
     inputs = LoopInputs(fmus / "FemPendulum.fmu", parse_signal(DEFAULT_SETPOINT, "angle"), stop_time=stop_time,
-                        start_values=values)  # fmt: skip
-    if kind == "pid":
+                        start_values=values, hold=2 if kind == "pid_hold2" else 0)  # fmt: skip
+    if kind in ("pid", "pid_hold2"):
         controller = controller_fmu(fmus / "PidController.fmu").open()
     else:
         pid = Pid()  # the PID FMU's law and default gains, in this process
@@ -116,7 +118,7 @@ def main() -> None:
         kind, fidelity, fmus, stop = args.child
         child(kind, fidelity, Path(fmus), float(stop))
         return
-    kinds = ["pid", "function"] + (["old"] if args.old else [])
+    kinds = ["pid", "pid_hold2", "function"] + (["old"] if args.old else [])
     print(f"load average before: {os.getloadavg()}")
     for fidelity in args.fidelities:
         runs: dict[str, list[dict]] = {k: [] for k in kinds}
