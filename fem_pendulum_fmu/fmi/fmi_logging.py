@@ -98,6 +98,9 @@ def routed(handler: FmiLogHandler) -> Iterator[None]:
         unroute()
 
 
+BINARY_FOLDERS = ("linux64", "x86_64-linux")  # where the FMI 2.0 and the FMI 3.0 FMU keep the Linux binary
+
+
 class ErrorReport:
     """fem_pendulum_report_error of the FMU's binary (binaries/linux64/FemPendulum.so), looked up at the
     first report. Without it (pythonfmu's binary: Windows) `report` answers False and the caller queues
@@ -136,8 +139,10 @@ def _find_report(resources: str | None) -> tuple[int, Callable[[bytes], Any]] | 
     import ctypes
     from pathlib import Path
 
-    binary = Path(resources).parent / "binaries" / "linux64" / "FemPendulum.so"
-    if not binary.is_file():
+    # the FMI 2.0 FMU's folder, else the FMI 3.0 FMU's
+    binaries = Path(resources).parent / "binaries"
+    binary = next((b for b in (binaries / p / "FemPendulum.so" for p in BINARY_FOLDERS) if b.is_file()), None)
+    if binary is None:
         return None
     try:
         library = ctypes.CDLL(str(binary))
@@ -150,6 +155,23 @@ def _find_report(resources: str | None) -> tuple[int, Callable[[bytes], Any]] | 
         return None
     report.argtypes = [ctypes.c_char_p]
     return library._handle, report
+
+
+def find_binary_function(resources: str | None, name: str) -> Callable[..., int] | None:
+    """The FMI 3.0 binary's exported `name` (int f(double, int)), or None. ctypes keeps the library loaded for
+    the process; the host's own handle keeps it loaded anyway."""
+    if not resources:
+        return None
+    import ctypes
+    from pathlib import Path
+
+    binary = Path(resources).parent / "binaries" / BINARY_FOLDERS[1] / "FemPendulum.so"
+    try:
+        function = getattr(ctypes.CDLL(str(binary)), name)
+    except (OSError, AttributeError):
+        return None
+    function.argtypes, function.restype = [ctypes.c_double, ctypes.c_int], ctypes.c_int
+    return function
 
 
 def _close_library(handle: int) -> None:

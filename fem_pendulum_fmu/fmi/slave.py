@@ -30,7 +30,7 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variabil
 from pythonfmu.variables import Boolean, Integer, Real, String
 
 from ..physics.fidelity import PendulumModel, StepFailed, create
-from ..physics.protocol import SUMMARY_OUTPUTS, OutputDerivatives, Outputs
+from ..physics.protocol import SUMMARY_OUTPUTS, OutputDerivatives, Outputs, StopAt
 from ..physics.torque import Torque, TorqueProfile
 from . import interface as fmi_interface
 from .fmi_logging import LOG, FmiLogHandler, route_to, routed, unroute
@@ -214,7 +214,8 @@ class PendulumSlave(CheckedVariableAccess):
             return f"communication point {current_time!r} does not match the FMU's time {self.model.time!r}"
         return None
 
-    def do_step(self, current_time: float, step_size: float) -> bool:
+    def do_step(self, current_time: float, step_size: float, stop: StopAt | None = None) -> bool:
+        """The step from current_time; `stop` (the FMI 3.0 slave's, fmi/slave3.py) may end it early."""
         model, refusal = self.model, self._step_refusal(current_time)  # locals: this runs at every step
         if refusal is not None or model is None:
             self._error(f"doStep refused: {refusal}")
@@ -222,7 +223,13 @@ class PendulumSlave(CheckedVariableAccess):
         route_to(self._handler)  # as routed(), without a generator's cost at every step
         self.cannot_continue = False
         try:
-            self.outputs = model.advance(current_time + step_size, self.step_torque())
+            t_end = current_time + step_size
+            # the FMI 2.0 FMU calls advance as before stop existed
+            self.outputs = (
+                model.advance(t_end, self.step_torque())
+                if stop is None
+                else model.advance(t_end, self.step_torque(), stop)
+            )
             self._discarded, self.torque_rates, self._derivatives = None, NO_RATES, None
             if self.vtk is not None and self.vtk.due(model.time):
                 self._write_frame()
