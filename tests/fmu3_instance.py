@@ -7,12 +7,21 @@ cannot help or hurt the next.
 from __future__ import annotations
 
 import shutil
+import subprocess
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import in_child
 from fmpy import extract, read_model_description
 from fmpy.fmi3 import FMU3Slave
+
+
+def child(module: str, function: str, *args: Any) -> Any:
+    """What `function` of the test module `module` returned in a fresh interpreter (tests/in_child.py)."""
+    run = subprocess.run(in_child.command(module, function, *args), capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+    return in_child.result(run.stdout)
 
 
 class Instance3:

@@ -7,29 +7,20 @@ this module there and returns what it returned); the parent asserts.
 
 from __future__ import annotations
 
-import subprocess
 import zipfile
 from pathlib import Path
 from xml.etree import ElementTree
 
-import in_child
 import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
-from fmu3_instance import Instance3
+from fmu3_instance import Instance3, child
 
 MODULE = Path(__file__).stem
 FMI3_TYPES = {"Real": "Float64", "Integer": "Int32", "Enumeration": "Enumeration", "Boolean": "Boolean"}
 FIDELITY = {"rigid": 2, "reduced": 3, "fem": 4}
-
-
-def child(function: str, *args):
-    """What `function` of this module returned in a fresh interpreter."""
-    run = subprocess.run(in_child.command(MODULE, function, *args), capture_output=True, text=True)
-    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
-    return in_child.result(run.stdout)
 
 
 def test_fmu_passes_fmpy_validation_with_the_interface_of_the_template(fmu3, fmus):
@@ -77,7 +68,7 @@ def default_runs(fmu2: str, fmu3: str, fidelity: int, stop: float) -> dict[str, 
 def test_default_scene_gives_the_fmi2_fmus_results(fmu3, fmus, fidelity):
     # 0.3 s: the release, the first impact at 239 ms and after; fem 0.05 s (0.6 s of CPU per simulated second)
     stop = 0.05 if fidelity == "fem" else 0.3
-    runs = child("default_runs", str(fmus[0]), str(fmu3), FIDELITY[fidelity], stop)
+    runs = child(MODULE, "default_runs", str(fmus[0]), str(fmu3), FIDELITY[fidelity], stop)
     assert runs["fmi2 time"] == runs["fmi3 time"] and len(runs["fmi3 time"]) == round(stop / 1e-3) + 1
     theta2, theta3 = np.array(runs["fmi2 theta"]), np.array(runs["fmi3 theta"])
     assert np.max(np.abs(theta3 - theta2)) <= 1e-12  # the issue's bound; the same code gives 0 here
@@ -122,7 +113,7 @@ def state_round_trip(fmu: str) -> dict:
 
 
 def test_state_round_trip_is_bit_identical_and_bad_bytes_are_refused(fmu3):
-    got = child("state_round_trip", str(fmu3))
+    got = child(MODULE, "state_round_trip", str(fmu3))
     assert got["first"] == got["again"] == got["from_bytes"]
     assert len(got["refused"]) == 3 and all("status 3" in r for r in got["refused"]) and got["kept"]
     errors = [m for s, m in got["messages"] if s == 3]
@@ -172,7 +163,7 @@ def wrong_token(fmu: str) -> list[str]:
 
 
 def test_refused_calls_are_errors_logged_without_debug_logging(fmu3):
-    got = child("refusals", str(fmu3))
+    got = child(MODULE, "refusals", str(fmu3))
     assert all("status 3 (error)" in s for s in got["statuses"]), got["statuses"]
     errors = [m for s, m in got["messages"] if s == 3]
     assert any("torque = nan" in m for m in errors), errors

@@ -89,8 +89,9 @@ class PendulumSlave3(Fmi3Slave):
         after = inner.outputs
         if done and after is not None and inner.model is not None:
             self.early_return = inner.model.time < current_time + step_size
-            touched = after.contact_force > 0.0 or after.min_gap <= 0.0
-            self.event_handling_needed = touched != in_contact or (not in_contact and after.min_gap <= 0.0)
+            in_contact_after = after.contact_force > 0.0
+            onset = not in_contact and (in_contact_after or after.min_gap <= 0.0)  # an impact within the step too
+            self.event_handling_needed = onset or (in_contact and not in_contact_after)
         return done
 
     def _stop(self, time: float, gap_before: float, gap_after: float) -> bool:
