@@ -48,6 +48,7 @@ class PendulumSlave(CheckedVariableAccess):
     """The pendulum's slave: parameters and the torque in, the outputs of the model it builds out."""
 
     author = "fem_pendulum_fmu developers"
+    deserialize_call = "fmi2DeSerializeFMUstate"  # for messages; the FMI 3.0 slave's is its own (slave3.py)
     description = "Nonlinear FE pendulum hitting a wall"
 
     def __init__(self, **kwargs: Any) -> None:
@@ -415,7 +416,7 @@ class PendulumSlave(CheckedVariableAccess):
         else:
             problem = state.mismatch(self.values, self.model is not None)
         if problem is not None:
-            self._error(f"fmi2DeSerializeFMUstate refused, nothing was changed: {problem}")
+            self._error(f"{self.deserialize_call} refused, nothing was changed: {problem}")
             return None
         return state
 

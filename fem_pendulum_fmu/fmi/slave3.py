@@ -27,6 +27,7 @@ class PendulumSlave3(Fmi3Slave):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.inner = PendulumSlave(**kwargs)
+        self.inner.deserialize_call = "fmi3DeserializeFMUState"
         self.author = self.inner.author
         self.description = self.inner.description
         self.log_queue = self.inner._get_log_queue()  # one queue: the binary forwards what either logs
