@@ -100,6 +100,13 @@ def state_round_trip(fmu: str) -> dict:
         except FMICallException as exc:
             refused.append(str(exc))
     after = inst.get("theta", "omega")
+    other = Instance3(fmu, name="other", **{"model.mesh_size": 0.06, "gravity": 9.0})  # a state that does not fit
+    try:
+        other.fmu.deserializeFMUState(blob)
+        refused.append("accepted")
+    except FMICallException as exc:
+        refused.append(str(exc))
+    other.close()
     inst.close()
     return {
         "first": first,
@@ -107,7 +114,7 @@ def state_round_trip(fmu: str) -> dict:
         "from_bytes": from_bytes,
         "refused": refused,
         "kept": before == after,
-        "messages": inst.messages,
+        "messages": inst.messages + other.messages,
         "magic": blob[:8].decode(),
     }
 
@@ -115,10 +122,11 @@ def state_round_trip(fmu: str) -> dict:
 def test_state_round_trip_is_bit_identical_and_bad_bytes_are_refused(fmu3):
     got = child(MODULE, "state_round_trip", str(fmu3))
     assert got["first"] == got["again"] == got["from_bytes"]
-    assert len(got["refused"]) == 3 and all("status 3" in r for r in got["refused"]) and got["kept"]
+    assert len(got["refused"]) == 4 and all("status 3" in r for r in got["refused"]) and got["kept"]
     errors = [m for s, m in got["messages"] if s == 3]
     assert any("fmi3DeserializeFMUState refused" in m and "too few" in m for m in errors), errors
     assert any("truncated" in m for m in errors) and any("not a serialised state" in m for m in errors)
+    assert any("fmi3DeserializeFMUState refused" in m and "gravity" in m for m in errors), errors
     assert got["magic"] == "FEMPFMU3"
 
 
