@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from xml.dom import minidom
 from xml.etree import ElementTree as ET
 
+from ..physics.head_gaps import profile_angles
+from ..physics.scene import PendulumGeometry
 from .interface import load
 
 # the FMI 2.0 template's types -> FMI 3.0's variable elements
@@ -32,7 +34,20 @@ class ArrayOutput:
     description: str
 
 
-ARRAY_OUTPUTS: tuple[ArrayOutput, ...] = ()
+# physics/head_gaps.py: points of the head's outer boundary every 22.5 degrees from the one facing the wall, each
+# moved as the body moves it, and their signed distances to the wall block; the `gap` output is the minimum over
+# the whole boundary
+GAP_POINTS = len(profile_angles(PendulumGeometry()))
+ARRAY_OUTPUTS = (
+    ArrayOutput(
+        "gap_profile",
+        GAP_POINTS,
+        "m",
+        f"Signed distance to the wall block of {GAP_POINTS} points of the head's outer boundary, every 22.5 degrees "
+        "counter-clockwise from the one facing the wall in the hanging position (those in the rod's joint left "
+        "out), negative = penetration; the gap output is the minimum over the whole boundary",
+    ),
+)
 CAPABILITIES = {
     "needsExecutionTool": "true",
     "canBeInstantiatedOnlyOncePerProcess": "false",

@@ -165,6 +165,15 @@ class PendulumSlave(CheckedVariableAccess):
         model.time = self.time
         return model.outputs()
 
+    def output_model(self) -> PendulumModel | None:
+        """The model the outputs are read from: the running one, or in initializationMode the one the
+        parameters set so far describe (initial_outputs builds it); None when there is none."""
+        if self.model is not None:
+            return self.model
+        if self.initial_outputs() is None or self._preview is None:
+            return None
+        return self._preview[1]
+
     def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
         if self.model is None:  # an instance started from an FMU state keeps the state's time
             self.time = float(start_time)

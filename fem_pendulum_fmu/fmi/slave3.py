@@ -4,10 +4,10 @@ The FMI 3.0 FMU's binary (shim/fmi3_*.c) calls the methods of pythonfmu3's Fmi3S
 (get_float64, set_int64, do_step, ...). This class answers them with the FMI 2.0 slave it holds
 (`PendulumSlave`, fmi/slave.py: variables, life cycle, FMU states, refusals), so both FMUs run the same
 Python and the same models and give the same results. What FMI 3.0 adds lives here: the independent
-variable `time`, Enumerations read as Int64, early return at contact onset and the intermediate update
-(the host's callback, reached through the binary's fem_pendulum_intermediate_update), and the contact's
-onset and release reported as events. No physics: the model stops where the slave's `stop` says so
-(physics/stepping.py). docs/fmu3.md.
+variable `time`, the array output gap_profile (computed by physics/head_gaps.py), Enumerations read as
+Int64, early return at contact onset and the intermediate update (the host's callback, reached through
+the binary's fem_pendulum_intermediate_update), and the contact's onset and release reported as events.
+No physics: the model stops where the slave's `stop` says so (physics/stepping.py). docs/fmu3.md.
 """
 
 from __future__ import annotations
@@ -16,8 +16,9 @@ from typing import Any
 
 from pythonfmu3 import Fmi3Slave
 
+from ..physics.head_gaps import head_boundary_gaps
 from .fmi_logging import find_binary_function
-from .model_description3 import time_reference
+from .model_description3 import ARRAY_OUTPUTS, array_references, time_reference
 from .slave import PendulumSlave
 
 
@@ -32,6 +33,8 @@ class PendulumSlave3(Fmi3Slave):
         self.description = self.inner.description
         self.log_queue = self.inner._get_log_queue()  # one queue: the binary forwards what either logs
         self.time_vr = time_reference()
+        self.arrays = {vr: ARRAY_OUTPUTS[k] for k, vr in enumerate(array_references().values())}
+        self._special = {self.time_vr, *self.arrays}  # the Float64 variables the FMI 2.0 slave does not have
         self.event_mode_used = self.early_return_allowed = self.has_callback = False
         self.event_handling_needed = False  # the last doStep saw the contact begin or end
         self.early_return = False  # the last doStep returned before its end
@@ -108,9 +111,25 @@ class PendulumSlave3(Fmi3Slave):
 
     # ------------------------------------------------------ getters and setters
     def get_float64(self, vrs: list[int]) -> list[float]:
-        if self.time_vr not in vrs:
+        """The template's Real variables through the FMI 2.0 slave; `time` and the arrays (flattened) here."""
+        if not self._special.intersection(vrs):
             return self.inner.get_real(vrs)
-        return [self.communication_time if vr == self.time_vr else self.inner.get_real([vr])[0] for vr in vrs]
+        values: list[float] = []
+        for vr in vrs:
+            if vr == self.time_vr:
+                values.append(self.communication_time)
+            elif vr in self.arrays:
+                values.extend(self._array(vr))
+            else:
+                values.extend(self.inner.get_real([vr]))
+        return values
+
+    def _array(self, vr: int) -> list[float]:
+        """An array output's values (ARRAY_OUTPUTS: gap_profile, physics/head_gaps.py); zeros without a model,
+        as the scalar outputs read then."""
+        size = self.arrays[vr].size
+        model = self.inner.output_model()
+        return [0.0] * size if model is None else head_boundary_gaps(model).tolist()
 
     def set_float64(self, vrs: list[int], values: list[float]) -> None:
         self.inner.set_real(vrs, values)
