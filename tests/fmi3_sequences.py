@@ -139,7 +139,7 @@ class Sequence:
 
     def variables(self) -> None:
         o, rng = self.oracle, self.rng
-        pick = rng.randrange(5)
+        pick = rng.randrange(6)
         if pick == 0:
             value = rng.choice([0.0, 0.3, -0.5, math.nan])
             if (
@@ -168,6 +168,14 @@ class Sequence:
                 self.tally.violations.append(f"time reads {self.result[1]!r}, the FMU's time is {o.time!r}")
         elif pick == 3:
             self.judge("getInt64 bad reference", {ERROR}, lambda: self.slave.getInt64([9999]))
+        elif pick == 4:  # the array output: nValues must count its elements
+            n = rng.choice([15, 15, 14, 1])
+            ok = o.state in INITIALISED and n == 15
+            self.judge(
+                f"getFloat64 gap_profile {n}",
+                {OK} if ok else {ERROR},
+                lambda: self.slave.getFloat64([self.vr["gap_profile"]], nValues=n),
+            )
         else:
             self.judge("getFloat32", {ERROR}, lambda: self.slave.getFloat32([self.vr["theta"]]))
 
