@@ -157,9 +157,9 @@ def _find_report(resources: str | None) -> tuple[int, Callable[[bytes], Any]] | 
     return library._handle, report
 
 
-def find_binary_function(resources: str | None, name: str) -> Callable[..., int] | None:
-    """The FMI 3.0 binary's exported `name` (int f(double, int)), or None. ctypes keeps the library loaded for
-    the process; the host's own handle keeps it loaded anyway."""
+def find_binary_function(resources: str | None, name: str) -> tuple[int, Callable[..., int]] | None:
+    """The FMI 3.0 binary's library handle and its exported `name` (int f(double, int)), or None. The caller
+    closes the handle (close_library) when its instance goes, as ErrorReport does."""
     if not resources:
         return None
     import ctypes
@@ -167,11 +167,24 @@ def find_binary_function(resources: str | None, name: str) -> Callable[..., int]
 
     binary = Path(resources).parent / "binaries" / BINARY_FOLDERS[1] / "FemPendulum.so"
     try:
-        function = getattr(ctypes.CDLL(str(binary)), name)
-    except (OSError, AttributeError):
+        library = ctypes.CDLL(str(binary))
+    except OSError:
+        return None
+    try:
+        function = getattr(library, name)
+    except AttributeError:
+        _close_library(library._handle)
         return None
     function.argtypes, function.restype = [ctypes.c_double, ctypes.c_int], ctypes.c_int
-    return function
+    return library._handle, function
+
+
+def close_library(handle: int) -> None:
+    """dlclose a handle of find_binary_function; a refusal is logged, nothing else is lost."""
+    try:
+        _close_library(handle)
+    except OSError as exc:
+        LOG.debug("release: the binary's library handle was not closed (%s)", exc)
 
 
 def _close_library(handle: int) -> None:

@@ -17,7 +17,7 @@ from typing import Any
 from pythonfmu3 import Fmi3Slave
 
 from ..physics.head_gaps import head_boundary_gaps
-from .fmi_logging import find_binary_function
+from .fmi_logging import close_library, find_binary_function
 from .model_description3 import ARRAY_OUTPUTS, array_references, time_reference
 from .slave import PendulumSlave
 
@@ -38,7 +38,9 @@ class PendulumSlave3(Fmi3Slave):
         self.event_mode_used = self.early_return_allowed = self.has_callback = False
         self.event_handling_needed = False  # the last doStep saw the contact begin or end
         self.early_return = False  # the last doStep returned before its end
-        self._update: Any = None  # the binary's fem_pendulum_intermediate_update, looked up at first use
+        # the binary's library handle and fem_pendulum_intermediate_update, looked up at the first intermediate update
+        self._update: tuple[int, Any] | None = None
+        self._looked = False
 
     def configure(self, event_mode_used: int, early_return_allowed: int, has_callback: int) -> None:
         """How the host instantiated the FMU (fmi3InstantiateCoSimulation's arguments; the binary calls this)."""
@@ -72,6 +74,9 @@ class PendulumSlave3(Fmi3Slave):
 
     def release(self) -> None:
         self.inner.release()
+        found, self._update, self._looked = self._update, None, False
+        if found is not None:
+            close_library(found[0])
 
     @property
     def communication_time(self) -> float:
@@ -103,9 +108,10 @@ class PendulumSlave3(Fmi3Slave):
         where the host's intermediate-update callback asks for it."""
         onset = self.early_return_allowed and gap_before > 0.0 >= gap_after
         if self.has_callback:
-            if self._update is None:
-                self._update = find_binary_function(self.resources, "fem_pendulum_intermediate_update") or False
-            if self._update and self._update(time, int(self.early_return_allowed)):
+            if not self._looked:
+                self._looked = True
+                self._update = find_binary_function(self.resources, "fem_pendulum_intermediate_update")
+            if self._update is not None and self._update[1](time, int(self.early_return_allowed)):
                 return True
         return onset
 
