@@ -157,16 +157,22 @@ def refusals(fmu: str) -> dict:
 
 
 def wrong_token(fmu: str) -> list[str]:
-    """The messages of an fmi3InstantiateCoSimulation with another FMU's instantiation token (NULL)."""
+    """The messages of fmi3InstantiateCoSimulation with another FMU's instantiation token, and with required
+    intermediate variables (NULL both times)."""
     from fmpy import extract
     from fmpy.fmi3 import FMU3Slave
 
     messages: list[str] = []
-    slave = FMU3Slave(guid="{not-this-one}", unzipDirectory=extract(fmu), modelIdentifier="FemPendulum")
-    try:
-        slave.instantiate(logMessage=lambda env, status, category, message: messages.append(message.decode()))
-    except Exception as exc:  # fmpy raises when the instance is NULL
-        messages.append(f"raised: {exc}")
+    folder, token = extract(fmu), read_model_description(fmu).guid
+    for guid, required in (("{not-this-one}", None), (token, [1])):
+        slave = FMU3Slave(guid=guid, unzipDirectory=folder, modelIdentifier="FemPendulum")
+        try:
+            slave.instantiate(
+                logMessage=lambda env, status, category, message: messages.append(message.decode()),
+                requiredIntermediateVariables=required,
+            )
+        except Exception as exc:  # fmpy raises when the instance is NULL
+            messages.append(f"raised: {exc}")
     return messages
 
 
@@ -181,7 +187,8 @@ def test_refused_calls_are_errors_logged_without_debug_logging(fmu3):
     assert any("fmi3GetFloat32 is not provided" in m for m in errors)
     assert got["kept"]
     assert any("instantiation token {not-this-one} is not this FMU's" in m for m in got["token"])
-    assert got["token"][-1] == "raised: Failed to instantiate FMU"
+    assert got["token"].count("raised: Failed to instantiate FMU") == 2
+    assert any("offers no intermediate variables" in m for m in got["token"])
 
 
 def gap_profiles(fmu: str, fidelity: int) -> list[list[float]]:
