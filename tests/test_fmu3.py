@@ -48,7 +48,8 @@ def test_terminal_of_the_hinge_flange_names_angle_speed_and_torque(fmu3):
         root = ElementTree.fromstring(archive.read("terminalsAndIcons/terminalsAndIcons.xml"))
         names = {v.get("name") for v in ElementTree.fromstring(archive.read("modelDescription.xml")).iter()}
     (terminal,) = root.iter("Terminal")
-    assert terminal.get("terminalKind") == "Modelica.Mechanics.Rotational.Interfaces.Flange"
+    assert terminal.get("terminalKind") == "fem_pendulum_fmu.RotationalFlangeSignals"
+    assert {m.get("variableKind") for m in terminal.iter("TerminalMemberVariable")} == {"signal"}
     members = {m.get("memberName"): m.get("variableName") for m in terminal.iter("TerminalMemberVariable")}
     assert members == {"phi": "theta", "w": "omega", "tau": "torque"}
     assert set(members.values()) <= names

@@ -33,13 +33,14 @@ from .model_description3 import to_fmi3
 FMI3_SOURCES = ("fmi3_functions.c", "fmi3_step.c", "fmi3_states.c", "fmi3_unsupported.c", *SHARED_SOURCES)
 ENTRY = "femp3_slave_entry.py"
 
-# the hinge's rotational flange (Modelica.Mechanics.Rotational.Interfaces.Flange): the angle and the
-# angular velocity are outputs, the torque the input that drives it
+# the hinge's rotational flange as a bus of signals, named as Modelica's rotational flange names them (phi, w,
+# tau): the angle and the angular velocity are outputs, the torque the input that drives it. Not Modelica's
+# acausal Flange (phi and the flow tau), which a causal co-simulation FMU cannot be: hence its own terminalKind
 TERMINALS = """<?xml version="1.0" encoding="UTF-8"?>
 <fmiTerminalsAndIcons fmiVersion="3.0">
   <Terminals>
-    <Terminal name="hinge" matchingRule="bus" terminalKind="Modelica.Mechanics.Rotational.Interfaces.Flange"
-        description="The hinge's rotational flange: angle and angular velocity of the pendulum, drive torque">
+    <Terminal name="hinge" matchingRule="bus" terminalKind="fem_pendulum_fmu.RotationalFlangeSignals"
+        description="The hinge's rotational flange as signals: angle phi, angular velocity w out, torque tau in">
       <TerminalMemberVariable variableName="theta" memberName="phi" variableKind="signal"/>
       <TerminalMemberVariable variableName="omega" memberName="w" variableKind="signal"/>
       <TerminalMemberVariable variableName="torque" memberName="tau" variableKind="signal"/>
