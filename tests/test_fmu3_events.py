@@ -60,16 +60,25 @@ def intermediate_updates(fmu: str, allowed: bool) -> dict:
     """(In a child.) A 0.2 s doStep of free flight whose host asks, at the third intermediate update, to
     return early."""
     calls: list[list] = []
+    inside: list[str] = []  # what a call on the instance from inside the callback answered
+    holder: list[Instance3] = []
 
     def update(env, time, set_requested, get_allowed, finished, can_return, requested, early_time):
         calls.append([time, bool(set_requested), bool(get_allowed), bool(finished), bool(can_return)])
+        if len(calls) == 1:
+            try:
+                holder[0].fmu.getFloat64([holder[0].vr("theta")])
+                inside.append("ok")
+            except FMICallException as exc:
+                inside.append(str(exc))
         if len(calls) == 3:
             requested[0] = True
 
     inst = Instance3(fmu, early_return=allowed, intermediate=update, **RIGID)
+    holder.append(inst)
     _, early, t = inst.step(0.2)
     inst.close()
-    return {"calls": calls, "early": early, "t": t}
+    return {"calls": calls, "early": early, "t": t, "inside": inside, "messages": inst.messages}
 
 
 def test_intermediate_update_is_called_at_internal_steps_and_an_early_return_asked_there_is_granted(fmu3):
@@ -78,6 +87,8 @@ def test_intermediate_update_is_called_at_internal_steps_and_an_early_return_ask
     assert len(calls) == 3 and all(c[1:] == [False, False, True, True] for c in calls)
     assert 0.0 < calls[0][0] < calls[1][0] < calls[2][0] < 0.2
     assert got["early"] and got["t"] == calls[2][0]
+    assert len(got["inside"]) == 1 and "status 3" in got["inside"][0]  # no variable access inside the callback
+    assert any("fmi3GetFloat64 refused: called during fmi3DoStep" in m for _, m in got["messages"])
     not_allowed = child(MODULE, "intermediate_updates", str(fmu3), False)
     assert not not_allowed["early"] and not_allowed["t"] == pytest.approx(0.2, abs=1e-12)
     assert len(not_allowed["calls"]) > 3 and all(c[4] is False for c in not_allowed["calls"])

@@ -147,6 +147,11 @@ int configure_slave(Instance *inst, char *why, size_t n) {
 void fmi3FreeInstance(fmi3Instance instance) {
     Instance *inst = (Instance *)instance;
     if (inst == NULL) return;
+    if (inst->fmi3.in_step) { /* from the intermediate-update callback: the step still uses the instance */
+        log_error(inst, "fmi3FreeInstance refused: called during fmi3DoStep (from the intermediate-update callback); "
+                  "the instance is kept");
+        return;
+    }
     if (python_usable()) { /* else the Python objects are left to the ending process */
         PyGILState_STATE gil = py.GILStateEnsure();
         release_all_states(inst);
