@@ -232,3 +232,50 @@ def test_the_gap_profile_array_agrees_with_the_gap(fmu3, fidelity):
     assert np.all(gap[free] > 1e-3) and np.all(profile[free].min(axis=1) - gap[free] > 0.0)
     assert np.all(gap[contact] <= 0.0) and np.all(profile[contact].argmin(axis=1) == 0)
     assert np.max(np.abs(profile[contact].min(axis=1) - gap[contact])) <= AT_CONTACT[fidelity]
+
+
+def raising_calls(fmu: str) -> dict:
+    """(In a child.) Each FMI 3.0 call whose slave entry point raises, in stepMode: its status; then the
+    same calls with nothing raising."""
+    import os
+
+    inst = Instance3(fmu, **{"model.fidelity": 2})
+    state = inst.fmu.getFMUState()
+    theta = inst.vr("theta")
+    calls = {
+        "doStep": lambda: inst.fmu.doStep(inst.t, 1e-3),
+        "getFloat64": lambda: inst.fmu.getFloat64([theta]),
+        "setFloat64": lambda: inst.fmu.setFloat64([inst.vr("torque")], [0.5]),
+        "getInt64": lambda: inst.fmu.getInt64([inst.vr("model.fidelity")]),
+        "getFMUState": inst.fmu.getFMUState,
+        "setFMUState": lambda: inst.fmu.setFMUState(state),
+        "serializeFMUState": lambda: inst.fmu.serializeFMUState(state),
+        "terminate": inst.fmu.terminate,
+    }
+    answers: dict[str, list[str]] = {}
+    for switch in ("*", ""):
+        os.environ["RAISE3"] = switch
+        for name, call in calls.items():
+            try:
+                call()
+                answers.setdefault(name, []).append("ok")
+            except FMICallException as exc:
+                answers.setdefault(name, []).append(str(exc))
+    inst.fmu.freeInstance()
+    return {"answers": answers, "messages": inst.messages}
+
+
+def test_a_slave_that_raises_answers_error_never_fatal(fmu3, tmp_path):
+    copy = tmp_path / "Raising3.fmu"
+    with zipfile.ZipFile(fmu3) as src, zipfile.ZipFile(copy, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == "resources/femp3_slave_entry.py":
+                data = (Path(__file__).parent / "raising_entry3.py").read_bytes()
+            dst.writestr(item, data)
+    got = child(MODULE, "raising_calls", str(copy))
+    for name, (raising, plain) in got["answers"].items():
+        assert "status 3 (error)" in raising and plain == "ok", (name, raising, plain)
+    errors = [m for s, m in got["messages"] if s == 3]
+    assert sum("raised on purpose" in m for m in errors) == len(got["answers"]), errors
+    assert not any(s == 4 for s, _ in got["messages"])
