@@ -279,3 +279,38 @@ def test_a_slave_that_raises_answers_error_never_fatal(fmu3, tmp_path):
     errors = [m for s, m in got["messages"] if s == 3]
     assert sum("raised on purpose" in m for m in errors) == len(got["answers"]), errors
     assert not any(s == 4 for s, _ in got["messages"])
+
+
+def output_derivatives(fmu3: str, fmu2: str) -> dict:
+    """(In a child.) theta' theta'' omega' energy.total' after five driven steps, FMI 3.0 and FMI 2.0; refusals."""
+    from test_fmu import Instance as Instance2
+
+    names, orders = ["theta", "theta", "omega", "energy.total"], [1, 2, 1, 1]
+    got: dict = {}
+    inst3, inst2 = Instance3(fmu3, **{"model.fidelity": 2}), Instance2(Path(fmu2), **{"model.fidelity": 2})
+    for _ in range(5):
+        inst3.step(1e-3, 0.2)
+        inst2.step(1e-3, 0.2)
+    got["fmi3"] = inst3.fmu.getOutputDerivatives([inst3.vr(n) for n in names], orders)
+    got["fmi2"] = list(inst2.fmu.getRealOutputDerivatives([inst2.var[n].valueReference for n in names], orders))
+    got["refused"] = []
+    for name in ("gap_min", "gap_profile"):
+        try:
+            inst3.fmu.getOutputDerivatives([inst3.vr(name)], [1])
+            got["refused"].append("ok")
+        except FMICallException as exc:
+            got["refused"].append(str(exc))
+    got["messages"] = [m for s, m in inst3.messages if s == 3]
+    inst3.close()
+    inst2.close()
+    return got
+
+
+def test_output_derivatives_are_the_fmi2_fmus(fmu3, fmus):
+    got = child(MODULE, "output_derivatives", str(fmu3), str(fmus[0]))
+    assert got["fmi3"] == got["fmi2"] and got["fmi3"][0] != 0.0
+    assert all("status 3" in r for r in got["refused"])
+    assert any("gap_min has no time derivative" in m for m in got["messages"]), got["messages"]
+    assert any(
+        "fmi3GetOutputDerivatives refused: nValues is 1, the 1 variables have 15 elements" in m for m in got["messages"]
+    )

@@ -58,6 +58,7 @@ CAPABILITIES = {
     "providesIntermediateUpdate": "true",
     "canReturnEarlyAfterIntermediateUpdate": "true",
     "mightReturnEarlyFromDoStep": "true",
+    "maxOutputDerivativeOrder": "2",  # the FMI 2.0 slave's (fmi3GetOutputDerivatives)
 }
 
 

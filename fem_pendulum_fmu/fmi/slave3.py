@@ -164,6 +164,10 @@ class PendulumSlave3(Fmi3Slave):
     def set_string(self, vrs: list[int], values: list[str]) -> None:
         self.inner.set_string(vrs, values)
 
+    def get_output_derivatives(self, vrs: list[int], orders: list[int]) -> list[float]:
+        """fmi3GetOutputDerivatives: the FMI 2.0 slave's output derivatives (docs/fmu.md)."""
+        return self.inner.get_real_output_derivatives(vrs, orders)
+
     # ---------------------------------------------------------------- FMU state
     def _get_fmu_state(self) -> Any:
         return self.inner._get_fmu_state()

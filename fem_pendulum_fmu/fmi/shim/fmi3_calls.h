@@ -39,6 +39,7 @@
     X(fmi3SerializedFMUStateSize, ANY_STATE)                              \
     X(fmi3SerializeFMUState, ANY_STATE)                                   \
     X(fmi3DeserializeFMUState, ANY_STATE)                                 \
+    X(fmi3GetOutputDerivatives, FMU_MAX_OUTPUT_DERIVATIVE_ORDER > 0 ? (STATE_STEP_COMPLETE | STATE_TERMINATED) : NO_STATE) \
     X(fmi3DoStep, STATE_STEP_COMPLETE)
 
 #endif

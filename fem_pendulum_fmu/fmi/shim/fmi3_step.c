@@ -15,7 +15,10 @@
 #include "call_frame.h"
 #include "fmi3Functions.h"
 #include "fmi3_shim.h"
+#include "fmu_build.h"
 #include "slave.h"
+#include "values.h"
+#include "variables.h"
 
 #define TIME_TOLERANCE 1e-9 /* as fmi/slave.py's _TIME_TOL */
 
@@ -109,4 +112,56 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
     for (size_t k = 0; k < sizeof flags / sizeof flags[0]; k++) *flags[k] = fmi3False;
     *nextEventTime = 0.0;
     return status;
+}
+
+/* The orders as a Python list (a new reference), or NULL. */
+static PyObject *order_list(const fmi3Int32 order[], size_t n) {
+    PyObject *list = py.ListNew((Py_ssize_t)n);
+    for (size_t k = 0; list != NULL && k < n; k++) {
+        PyObject *item = py.LongFromLong((long)order[k]);
+        if (item == NULL || py.ListSetItem(list, (Py_ssize_t)k, item) != 0) {
+            py.DecRef(list);
+            list = NULL;
+        }
+    }
+    return list;
+}
+
+/* Output derivatives at the FMU's time, as fmi2GetRealOutputDerivatives: each a continuous scalar Float64
+ * output, order 1 to maxOutputDerivativeOrder (the slave refuses the per-step summaries, saying why). */
+fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference vr[], size_t n,
+                                    const fmi3Int32 order[], fmi3Float64 value[], size_t nValues) {
+    Frame f;
+    Instance *inst = allowed(instance, CALL_fmi3GetOutputDerivatives);
+    if (inst == NULL) return fmi3Error;
+    if (n == 0) return fmi3OK;
+    if (vr == NULL || order == NULL || value == NULL)
+        return (fmi3Status)refuse(inst, CALL_fmi3GetOutputDerivatives, "the value reference, order or value array is NULL");
+    char why[512];
+    const char *bad = derivatives_problem(vr, n, order, ROLE_OUTPUT, FMU_MAX_OUTPUT_DERIVATIVE_ORDER, why, sizeof why);
+    if (bad == NULL && nValues != n) {
+        snprintf(why, sizeof why, "nValues is %zu for %zu value references: only scalar outputs have derivatives here",
+                 nValues, n);
+        bad = why;
+    }
+    if (bad == NULL) bad = count_problem(vr, n, n, why, sizeof why); /* an array among them */
+    if (bad != NULL) return (fmi3Status)refuse(inst, CALL_fmi3GetOutputDerivatives, bad);
+    if (!enter_python(inst, CALL_fmi3GetOutputDerivatives, &f)) return fmi3Error;
+    PyObject *refs = references(vr, n), *orders = order_list(order, n);
+    PyObject *answer = refs && orders ? py.CallMethod(inst->slave, "get_output_derivatives", "(OO)", refs, orders)
+                                      : NULL;
+    if (refs) py.DecRef(refs);
+    if (orders) py.DecRef(orders);
+    fmi2Status status = fmi2OK;
+    if (answer != NULL && !error_pending()) {
+        int ok = py.ListSize(answer) == (Py_ssize_t)n;
+        for (size_t k = 0; ok && k < n; k++) ok = read_item(KIND_REAL, py.ListGetItem(answer, (Py_ssize_t)k), value, k);
+        if (!ok) {
+            char text[2048] = "the answer is not a list of the right length";
+            if (py.ErrOccurred()) exception_message(text, sizeof text);
+            log_error(inst, "fmi3GetOutputDerivatives failed: the FMU's Python code gave no usable values (%s)", text);
+            status = fmi2Error;
+        }
+    }
+    return (fmi3Status)end(&f, slave_settle(inst, "fmi3GetOutputDerivatives", answer, status));
 }

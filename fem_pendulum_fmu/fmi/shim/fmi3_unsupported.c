@@ -1,6 +1,6 @@
 /* The FMI 3.0 functions this FMU does not provide (its modelDescription declares no model exchange, no
  * scheduled execution, no clocks, no types but Float64, Int32, Int64 (Enumerations), Boolean and String,
- * no directional derivatives, no output derivatives, no configuration mode, no variable dependencies):
+ * no directional derivatives, no configuration mode, no variable dependencies):
  * each answers fmi3Error with a log message naming it, changes nothing, and never reads its arguments.
  * Generated once from fmpy's fmi3FunctionTypes.h; the exported names must cover the whole FMI 3.0 API,
  * since hosts look every function up when they load the binary. */
@@ -361,15 +361,6 @@ fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t* nEventI
 fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t* nContinuousStates) {
     (void)nContinuousStates;
     return not_provided(instance, "fmi3GetNumberOfContinuousStates");
-}
-
-fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Int32 orders[], fmi3Float64 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)orders;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3GetOutputDerivatives");
 }
 
 fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference clockReference, fmi3Float64 activationTime) {
