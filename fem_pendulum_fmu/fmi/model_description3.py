@@ -17,10 +17,8 @@ from xml.etree import ElementTree as ET
 
 from ..physics.head_gaps import profile_angles
 from ..physics.scene import PendulumGeometry
-from .interface import load
+from .interface import FMI3_TYPES, load
 
-# the FMI 2.0 template's types -> FMI 3.0's variable elements
-TYPE_NAMES = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String"}
 DESCRIPTION_ATTRIBUTES = ("name", "valueReference", "description", "causality", "variability", "initial")
 
 
@@ -95,7 +93,7 @@ def _type_definitions(root2: ET.Element) -> ET.Element:
 
 def _variable(scalar: ET.Element) -> ET.Element:
     (typed,) = list(scalar)
-    tag = "Enumeration" if typed.tag == "Enumeration" else TYPE_NAMES[typed.tag]
+    tag = "Enumeration" if typed.tag == "Enumeration" else FMI3_TYPES[typed.tag]
     var = ET.Element(tag, {k: scalar.attrib[k] for k in DESCRIPTION_ATTRIBUTES if k in scalar.attrib})
     for key in ("declaredType", "unit", "displayUnit"):
         if key in typed.attrib:
