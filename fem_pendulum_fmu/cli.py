@@ -15,22 +15,36 @@ from .version import __version__
 
 
 def build(args: argparse.Namespace) -> None:
-    """Build FemPendulum.fmu (and PidController.fmu beside it) and print their paths."""
+    """Build FemPendulum.fmu (and PidController.fmu beside it) and print their paths; with --fmi-version 3,
+    the FMI 3.0 FemPendulum FMU alone."""
     from .fmi.builder import build_pendulum, validate
 
-    print(build_pendulum(args.output))
+    if args.fmi_version == 3:
+        from .fmi.builder3 import build_pendulum3
+
+        print(build_pendulum3(args.output or Path("dist") / "FemPendulum3.fmu"))
+        return
+    output = args.output or Path("dist") / "FemPendulum.fmu"
+    print(build_pendulum(output))
     if not args.no_controller:
         from .masters.pid.build import build_pid_fmu
 
-        print(validate(build_pid_fmu(args.output.resolve().parent / "PidController.fmu")))
+        print(validate(build_pid_fmu(output.resolve().parent / "PidController.fmu")))
 
 
 def add_build_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--output",
         type=Path,
-        default=Path("dist") / "FemPendulum.fmu",
-        help="where to write FemPendulum.fmu (default dist/FemPendulum.fmu)",
+        default=None,
+        help="where to write the FMU (default dist/FemPendulum.fmu; FMI 3.0: dist/FemPendulum3.fmu)",
+    )
+    parser.add_argument(
+        "--fmi-version",
+        type=int,
+        choices=(2, 3),
+        default=2,
+        help="2: the FMI 2.0 FMU and PidController.fmu beside it; 3: the FMI 3.0 FMU (docs/fmu3.md)",
     )
     parser.add_argument("--no-controller", action="store_true", help="do not build PidController.fmu")
 

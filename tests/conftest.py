@@ -40,6 +40,18 @@ def pd_fmu(tmp_path_factory) -> Path:
     return out / "PdControllerUnderTest.fmu"
 
 
+@pytest.fixture(scope="session")
+def fmu3(tmp_path_factory) -> Path:
+    """The FMI 3.0 FemPendulum FMU, built once per session by `fem-pendulum build --fmi-version 3`."""
+    out = tmp_path_factory.mktemp("dist3")
+    target = out / "FemPendulum3.fmu"
+    command = [str(Path(sys.executable).parent / "fem-pendulum"), "build", "--fmi-version", "3", "--output"]
+    run = subprocess.run([*command, str(target)], cwd=out, capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert run.stdout.split() == [str(target)]
+    return target
+
+
 # The slow lane's parametrized cases (whole tests carry @pytest.mark.slow in their files): the cases that took
 # 4 s or more in a full run of the suite on the 2-core machine while two other suites ran (2026-12-01; about 2 s of
 # CPU each), so that `pytest -m "not slow"` stays under 2 minutes. The cheaper cases of the same tests stay fast.

@@ -399,6 +399,19 @@ def check_c_host(folder: Path, run: subprocess.CompletedProcess[str]) -> None:
     assert (folder / "fmi2_host").is_file()
 
 
+def check_fmi3_build(folder: Path, run: subprocess.CompletedProcess[str]) -> None:
+    # the FMI 3.0 FMU built where the README says, valid, and its run the FMI 2.0 FMU's to the last bit
+    from fmpy import simulate_fmu
+    from fmpy.validation import validate_fmu
+
+    fmu3 = folder / "dist" / "FemPendulum3.fmu"
+    assert run.stdout.splitlines()[0] == "dist/FemPendulum3.fmu" or Path(run.stdout.split()[0]) == fmu3.resolve()
+    assert validate_fmu(str(fmu3)) == []
+    rows = np.genfromtxt(folder / "out3.csv", delimiter=",", names=True)
+    fmi2 = simulate_fmu(str(folder / "dist" / "FemPendulum.fmu"), stop_time=0.5, start_values={"model.fidelity": 2})
+    assert len(rows) == len(fmi2) == 501 and np.array_equal(rows["theta"], fmi2["theta"])
+
+
 @dataclass(frozen=True)
 class Runs:
     """A block that runs as written: `check(folder, run)` after it exited 0."""
@@ -426,7 +439,7 @@ SHELL: dict[str, Runs | NotRun] = {
         slow=True,
     ),
     "bash .ci/run": NotRun("the CI itself: it deletes .venv and runs the whole suite, this test included", check_ci),
-    "fmpy simulate": Runs(check_fmpy_command),
+    "fmpy simulate dist/FemPendulum.fmu": Runs(check_fmpy_command),
     "torque_sine.csv": Runs(check_open_loop, slow=True),
     "output.vtk_folder=out/fields": Runs(check_field_output),
     "--out out/control": Runs(check_controller, slow=True),
@@ -446,6 +459,7 @@ SHELL: dict[str, Runs | NotRun] = {
         check_host_env, after='printf "%s\\n" "$FEM_PENDULUM_LIBPYTHON" "$FEM_PENDULUM_PYTHON"'
     ),
     "examples/c_host/fmi2_host.c": Runs(check_c_host),
+    "--fmi-version 3": Runs(check_fmi3_build),
 }
 
 

@@ -30,9 +30,9 @@ from .interface import TEMPLATE_NAME, render
 
 FMI_DIR = Path(__file__).resolve().parent
 PACKAGE_DIR = FMI_DIR.parent
-SHIM_SOURCES = (
-    "fmi2_functions.c",
-    "fmi2_states.c",
+SHARED_SOURCES = (
+    "fmu_state_calls.c",
+    "values.c",
     "call_frame.c",
     "slave.c",
     "state_machine.c",
@@ -40,6 +40,7 @@ SHIM_SOURCES = (
     "fmu_states.c",
     "python_runtime.c",
 )
+SHIM_SOURCES = ("fmi2_functions.c", "fmi2_states.c", *SHARED_SOURCES)  # the FMI 2.0 binary
 # what the pendulum FMU imports at run time besides pythonfmu, which pythonfmu ships in every FMU's
 # resources (fmpy and the masters' packages are not among them)
 PENDULUM_REQUIREMENTS = ("ngsolve", "numpy", "scipy")
@@ -63,15 +64,16 @@ def python_environment_txt() -> str:
     return "".join(f"{key}={value}\n" for key, value in python_environment().items())
 
 
-def compile_shim(output: Path, model_description: str) -> bool:
-    """Compile the FMU's binary (shim/) to `output`; False where there is no compiler or headers."""
+def compile_shim(output: Path, model_description: str, names: tuple[str, ...] = SHIM_SOURCES) -> bool:
+    """Compile the FMU's binary (shim/: the files `names`) to `output`; False where there is no compiler or
+    headers. The modelDescription's fmiVersion decides for which FMI (binary_config.capability_defines)."""
     import fmpy
 
     include = Path(sysconfig.get_paths()["include"])
     compiler = shutil.which("cc") or shutil.which("gcc")
     if not sys.platform.startswith("linux") or compiler is None or not (include / "Python.h").is_file():
         return False
-    sources = [str(FMI_DIR / "shim" / name) for name in SHIM_SOURCES]
+    sources = [str(FMI_DIR / "shim" / name) for name in names]
     generated = output.parent / "generated"
     generated.mkdir(exist_ok=True)
     (generated / "fmu_variables.h").write_text(variables_header(model_description))
@@ -100,13 +102,22 @@ def compile_shim(output: Path, model_description: str) -> bool:
     return True
 
 
-def finish_fmu(fmu: Path, model_identifier: str, model_description: str, resources: dict[str, str]) -> None:
-    """Rewrite pythonfmu's archive: our modelDescription.xml, our linux64 binary in place of pythonfmu's
-    and the extra resources files."""
-    binary = f"binaries/linux64/{model_identifier}.so"
+def finish_fmu(
+    fmu: Path,
+    model_identifier: str,
+    model_description: str,
+    resources: dict[str, str],
+    platform: str = "linux64",
+    names: tuple[str, ...] = SHIM_SOURCES,
+    extra: dict[str, str] | None = None,
+) -> None:
+    """Rewrite pythonfmu's (or pythonfmu3's) archive: our modelDescription.xml, our binary (compiled from
+    shim/'s `names`) in place of its binaries/<platform> one, the extra resources files, and `extra` files
+    (archive name: text); its C++ sources (pythonfmu3's) are left out."""
+    binary = f"binaries/{platform}/{model_identifier}.so"
     with tempfile.TemporaryDirectory() as tmp:
         shim = Path(tmp) / "shim.so"
-        has_shim = compile_shim(shim, model_description)
+        has_shim = compile_shim(shim, model_description, names)
         if not has_shim:
             print(
                 f"{fmu.name}: no C compiler or Python headers; the FMU has pythonfmu's binary alone "
@@ -115,7 +126,10 @@ def finish_fmu(fmu: Path, model_identifier: str, model_description: str, resourc
         staged = fmu.with_suffix(".tmp")
         with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(staged, "w", zipfile.ZIP_DEFLATED) as dst:
             for item in src.infolist():
-                if item.filename == "modelDescription.xml" or item.filename[len("resources/") :] in resources:
+                name = item.filename
+                if name == "modelDescription.xml" or name.startswith("sources/") or name in (extra or {}):
+                    continue
+                if name.startswith("resources/") and name[len("resources/") :] in resources:
                     continue
                 data = src.read(item.filename)
                 if item.filename == binary and has_shim:
@@ -125,6 +139,8 @@ def finish_fmu(fmu: Path, model_identifier: str, model_description: str, resourc
             dst.writestr("modelDescription.xml", model_description)
             for name, text in resources.items():
                 dst.writestr(f"resources/{name}", text)
+            for name, text in (extra or {}).items():
+                dst.writestr(name, text)
         staged.replace(fmu)
 
 
@@ -148,7 +164,7 @@ def validate(fmu: Path) -> Path:
 
 def stage_package(target: Path) -> None:
     """Copy what the FMU runs (the package's physics and FMI layer, not the masters) to `target`."""
-    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "shim", "builder.py", "preflight.py")
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "shim", "builder*.py", "preflight.py")
     target.mkdir(parents=True)
     for name in ("__init__.py", "version.py"):
         shutil.copy2(PACKAGE_DIR / name, target / name)

@@ -98,6 +98,9 @@ def routed(handler: FmiLogHandler) -> Iterator[None]:
         unroute()
 
 
+BINARY_FOLDERS = ("linux64", "x86_64-linux")  # where the FMI 2.0 and the FMI 3.0 FMU keep the Linux binary
+
+
 class ErrorReport:
     """fem_pendulum_report_error of the FMU's binary (binaries/linux64/FemPendulum.so), looked up at the
     first report. Without it (pythonfmu's binary: Windows) `report` answers False and the caller queues
@@ -136,8 +139,10 @@ def _find_report(resources: str | None) -> tuple[int, Callable[[bytes], Any]] | 
     import ctypes
     from pathlib import Path
 
-    binary = Path(resources).parent / "binaries" / "linux64" / "FemPendulum.so"
-    if not binary.is_file():
+    # the FMI 2.0 FMU's folder, else the FMI 3.0 FMU's
+    binaries = Path(resources).parent / "binaries"
+    binary = next((b for b in (binaries / p / "FemPendulum.so" for p in BINARY_FOLDERS) if b.is_file()), None)
+    if binary is None:
         return None
     try:
         library = ctypes.CDLL(str(binary))
@@ -150,6 +155,36 @@ def _find_report(resources: str | None) -> tuple[int, Callable[[bytes], Any]] | 
         return None
     report.argtypes = [ctypes.c_char_p]
     return library._handle, report
+
+
+def find_binary_function(resources: str | None, name: str) -> tuple[int, Callable[..., int]] | None:
+    """The FMI 3.0 binary's library handle and its exported `name` (int f(double, int)), or None. The caller
+    closes the handle (close_library) when its instance goes, as ErrorReport does."""
+    if not resources:
+        return None
+    import ctypes
+    from pathlib import Path
+
+    binary = Path(resources).parent / "binaries" / BINARY_FOLDERS[1] / "FemPendulum.so"
+    try:
+        library = ctypes.CDLL(str(binary))
+    except OSError:
+        return None
+    try:
+        function = getattr(library, name)
+    except AttributeError:
+        _close_library(library._handle)
+        return None
+    function.argtypes, function.restype = [ctypes.c_double, ctypes.c_int], ctypes.c_int
+    return library._handle, function
+
+
+def close_library(handle: int) -> None:
+    """dlclose a handle of find_binary_function; a refusal is logged, nothing else is lost."""
+    try:
+        _close_library(handle)
+    except OSError as exc:
+        LOG.debug("release: the binary's library handle was not closed (%s)", exc)
 
 
 def _close_library(handle: int) -> None:

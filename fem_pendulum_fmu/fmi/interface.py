@@ -22,6 +22,9 @@ from typing import Any, Literal, get_args
 from ..physics.scene import Scene
 
 TEMPLATE_NAME = "modelDescription.template.xml"
+# each FMI 2.0 type of the template and the FMI 3.0 FMU's type for it (model_description3.py; an Enumeration is one
+# in both)
+FMI3_TYPES = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String"}
 # Integer aliases of enumerations, for masters that cannot set enumerations (libcosim); 0 = the enumeration decides
 ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}
 # parameters of the FMU's field output (fmi/vtk_output.py), not of the physics: no Scene field takes them
@@ -240,12 +243,13 @@ def render(guid: str, date: str, version: str, path: Path | None = None) -> str:
 
 
 def markdown_table(interface: Interface | None = None) -> str:
-    """The variable table for the README."""
+    """The variable table for the README (the type as the FMI 2.0 and the FMI 3.0 FMU declare it)."""
     interface = interface or load()
-    rows = ["| name | causality | type | unit | start | description |", "|---|---|---|---|---|---|"]
+    header = "| name | causality | type (FMI 2.0 / 3.0) | unit | start | description |"
+    rows = [header, "|---|---|---|---|---|---|"]
     for v in interface.variables:
         unit = (v.unit or "") + (f" (display {v.display_unit})" if v.display_unit else "")
-        typ = f"Enumeration ({', '.join(v.items)})" if v.items else v.type
+        typ = f"Enumeration ({', '.join(v.items)})" if v.items else f"{v.type} / {FMI3_TYPES[v.type]}"
         if v.start is None:
             start = ""
         elif v.items:

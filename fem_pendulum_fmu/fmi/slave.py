@@ -30,7 +30,7 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variabil
 from pythonfmu.variables import Boolean, Integer, Real, String
 
 from ..physics.fidelity import PendulumModel, StepFailed, create
-from ..physics.protocol import SUMMARY_OUTPUTS, OutputDerivatives, Outputs
+from ..physics.protocol import SUMMARY_OUTPUTS, OutputDerivatives, Outputs, StopAt
 from ..physics.torque import Torque, TorqueProfile
 from . import interface as fmi_interface
 from .fmi_logging import LOG, FmiLogHandler, route_to, routed, unroute
@@ -48,6 +48,7 @@ class PendulumSlave(CheckedVariableAccess):
     """The pendulum's slave: parameters and the torque in, the outputs of the model it builds out."""
 
     author = "fem_pendulum_fmu developers"
+    deserialize_call = "fmi2DeSerializeFMUstate"  # for messages; the FMI 3.0 slave's is its own (slave3.py)
     description = "Nonlinear FE pendulum hitting a wall"
 
     def __init__(self, **kwargs: Any) -> None:
@@ -164,6 +165,15 @@ class PendulumSlave(CheckedVariableAccess):
         model.time = self.time
         return model.outputs()
 
+    def output_model(self) -> PendulumModel | None:
+        """The model the outputs are read from: the running one, or in initializationMode the one the
+        parameters set so far describe (initial_outputs builds it); None when there is none."""
+        if self.model is not None:
+            return self.model
+        if self.initial_outputs() is None or self._preview is None:
+            return None
+        return self._preview[1]
+
     def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
         if self.model is None:  # an instance started from an FMU state keeps the state's time
             self.time = float(start_time)
@@ -214,7 +224,8 @@ class PendulumSlave(CheckedVariableAccess):
             return f"communication point {current_time!r} does not match the FMU's time {self.model.time!r}"
         return None
 
-    def do_step(self, current_time: float, step_size: float) -> bool:
+    def do_step(self, current_time: float, step_size: float, stop: StopAt | None = None) -> bool:
+        """The step from current_time; `stop` (the FMI 3.0 slave's, fmi/slave3.py) may end it early."""
         model, refusal = self.model, self._step_refusal(current_time)  # locals: this runs at every step
         if refusal is not None or model is None:
             self._error(f"doStep refused: {refusal}")
@@ -222,7 +233,13 @@ class PendulumSlave(CheckedVariableAccess):
         route_to(self._handler)  # as routed(), without a generator's cost at every step
         self.cannot_continue = False
         try:
-            self.outputs = model.advance(current_time + step_size, self.step_torque())
+            t_end = current_time + step_size
+            # the FMI 2.0 FMU calls advance as before stop existed
+            self.outputs = (
+                model.advance(t_end, self.step_torque())
+                if stop is None
+                else model.advance(t_end, self.step_torque(), stop)
+            )
             self._discarded, self.torque_rates, self._derivatives = None, NO_RATES, None
             if self.vtk is not None and self.vtk.due(model.time):
                 self._write_frame()
@@ -408,7 +425,7 @@ class PendulumSlave(CheckedVariableAccess):
         else:
             problem = state.mismatch(self.values, self.model is not None)
         if problem is not None:
-            self._error(f"fmi2DeSerializeFMUstate refused, nothing was changed: {problem}")
+            self._error(f"{self.deserialize_call} refused, nothing was changed: {problem}")
             return None
         return state
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import io
 import json
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
@@ -154,6 +155,10 @@ class ModelState:
         )
 
 
+# asked after each internal step of an advance: (the step's end time, gap before, gap after) -> stop there?
+StopAt = Callable[[float, float, float], bool]
+
+
 @runtime_checkable
 class PendulumModel(Protocol):
     """What the slave and the masters need from any fidelity."""
@@ -162,9 +167,11 @@ class PendulumModel(Protocol):
     fidelity: str
     time: float  # the current model time (s)
 
-    def advance(self, t_end: float, torque: Torque) -> Outputs:
+    def advance(self, t_end: float, torque: Torque, stop: StopAt | None = None) -> Outputs:
         """Integrate from the current time to t_end with the torque held constant (a float) or
-        following a TorqueProfile given at the current time (physics/torque.py).
+        following a TorqueProfile given at the current time (physics/torque.py). With `stop`, it is
+        asked after every internal step (its end time, the gap before and after it) and the advance
+        ends there when it answers True: the model's time is then that step's end (stepping.py).
 
         Raises StepFailed (state unchanged) when the step cannot be completed and
         ValueError for a bad argument (state unchanged)."""

@@ -62,7 +62,7 @@ from typing import TYPE_CHECKING, Generic, Protocol, TypeVar
 import numpy as np
 
 from .mass_properties import gravity_moment
-from .protocol import Outputs, StepFailed, check_advance_args
+from .protocol import Outputs, StepFailed, StopAt, check_advance_args
 from .torque import Torque, TorqueProfile, as_profile
 
 if TYPE_CHECKING:
@@ -154,6 +154,10 @@ class AdvanceResult(Generic[X]):
     rejected: int
     min_gap: float  # smallest gap seen at the internal steps of this advance (contacts between communication points)
     contact: ContactTally = field(default_factory=ContactTally)
+    stopped_at: float | None = None  # where `stop` ended the advance before its end
+
+    def end_time(self, t_end: float) -> float:
+        return t_end if self.stopped_at is None else self.stopped_at
 
     def finish(self, outputs: Outputs) -> float:
         """`finish_advance` with this advance's smallest gap and contact tally."""
@@ -162,18 +166,21 @@ class AdvanceResult(Generic[X]):
 
 
 def advance(
-    model: Steppable[X], x: X, t: float, t_end: float, torque: Torque, control: StepControl
+    model: Steppable[X],
+    x: X,
+    t: float,
+    t_end: float,
+    torque: Torque,
+    control: StepControl,
+    stop: StopAt | None = None,
 ) -> AdvanceResult[X]:
-    """Integrate from t to t_end; raises StepFailed if a step cannot be completed. `torque` is a
-    constant or a TorqueProfile whose time starts at t."""
-    n_contact = control.steps_per_contact
-    substeps = rejected = 0
+    """Integrate from t to t_end; raises StepFailed if a step cannot be completed. `torque` is a constant or
+    a TorqueProfile whose time starts at t. `stop` (protocol.StopAt) may end it after an internal step."""
+    n_contact, substeps, rejected, min_gap = control.steps_per_contact, 0, 0, math.inf
     dt_cap = control.max_step  # lowered after a failed solve, grows back on success
-    min_gap = math.inf
     contact = _start_tally(model)
     load = math.nan  # what the torque and gravity can press with, asked for once a contact is held long enough
-    profile = as_profile(torque)
-    t_start = t
+    profile, t_start = as_profile(torque), t
     while t_end - t > 0.0:
         remaining = t_end - t
         gap, rate = model.gap_and_rate(x)
@@ -212,10 +219,12 @@ def advance(
         x = x_new
         t = t_end if dt >= remaining else t + dt
         substeps += 1
+        if stop is not None and t < t_end and stop(t, gap, model.gap_and_rate(x)[0]):
+            break  # asked after every internal step but the last
         check_substeps(control, substeps, t, t_end)
         dt_cap = min(control.max_step, 2.0 * dt_cap)
     min_gap = min(min_gap, model.gap_and_rate(x)[0])
-    return AdvanceResult(x, substeps, rejected, min_gap, contact)
+    return AdvanceResult(x, substeps, rejected, min_gap, contact, t if t < t_end else None)
 
 
 class _StepTorque:
@@ -376,12 +385,12 @@ class SteppedModel(Generic[X]):
     def _compute_outputs(self, x: X, t: float, substeps: int) -> Outputs:
         raise NotImplementedError
 
-    def advance(self, t_end: float, torque: Torque) -> Outputs:
+    def advance(self, t_end: float, torque: Torque, stop: StopAt | None = None) -> Outputs:
         check_advance_args(self.time, t_end, torque)
         torque = torque if isinstance(torque, TorqueProfile) else float(torque)
-        result = advance(self, self._x, self.time, float(t_end), torque, self.control)
+        result = advance(self, self._x, self.time, float(t_end), torque, self.control, stop)
         self._x = result.state
-        self.time = float(t_end)
+        self.time = result.end_time(float(t_end))
         self._outputs = self._compute_outputs(self._x, self.time, result.substeps)
         self.last_min_gap = result.finish(self._outputs)
         return self._outputs

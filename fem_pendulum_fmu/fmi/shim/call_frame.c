@@ -17,6 +17,11 @@ int python_usable(void) { return !exiting && python_alive(); }
 Instance *allowed(fmi2Component c, Call call) {
     Instance *inst = (Instance *)c;
     if (inst == NULL) return NULL;
+    if (inst->fmi3.in_step) { /* FMI 3.0: called from the host's intermediate-update callback */
+        log_error(inst, "%s refused: called during fmi3DoStep (from the intermediate-update callback), where this "
+                  "FMU allows no other call; nothing was changed", call_name(call));
+        return NULL;
+    }
     int mask = allowed_states(call);
     if (!(mask & inst->state)) {
         char states[256];

@@ -21,6 +21,7 @@
 #include "fmu_build.h"
 #include "slave.h"
 #include "state_machine.h"
+#include "values.h"
 #include "variables.h"
 
 #define TIME_TOLERANCE 1e-9 /* as fmi/slave.py's _TIME_TOL */
@@ -243,117 +244,36 @@ fmi2Status fmi2CancelStep(fmi2Component c) {
 
 /* ---------------------------------------------------------- variable access */
 
-/* Fill values[k] from the k-th item of the slave's answer list. */
-static int read_item(Kind kind, PyObject *item, void *values, size_t k) {
-    switch (kind) {
-    case KIND_REAL: ((fmi2Real *)values)[k] = py.FloatAsDouble(item); break;
-    case KIND_INTEGER: ((fmi2Integer *)values)[k] = (fmi2Integer)py.LongAsLong(item); break;
-    case KIND_BOOLEAN: ((fmi2Boolean *)values)[k] = py.IsTrue(item) == 1 ? fmi2True : fmi2False; break;
-    case KIND_STRING: ((fmi2String *)values)[k] = py.UnicodeAsUTF8(item); break;
-    }
-    return py.ErrOccurred() == NULL;
-}
-
-static fmi2Status get_values(fmi2Component c, Call call, const char *method, Kind kind, const fmi2ValueReference vr[],
-                             size_t n, void *values) {
-    Frame f;
-    Instance *inst = allowed(c, call);
-    if (inst == NULL) return fmi2Error;
-    if (n == 0) return fmi2OK;
-    if (vr == NULL || values == NULL) return refuse(inst, call, "the value reference or value array is NULL");
-    char why[512];
-    const char *bad = variables_problem(vr, n, kind, 0, inst->state, why, sizeof why);
-    if (bad != NULL) return refuse(inst, call, bad);
-    if (!enter_python(inst, call, &f)) return fmi2Error;
-    PyObject *list = references(vr, n);
-    PyObject *answer = list ? py.CallMethod(inst->slave, method, "(O)", list) : NULL;
-    if (list) py.DecRef(list);
-    fmi2Status status = fmi2OK;
-    if (answer != NULL && !error_pending()) {
-        int ok = py.ListSize(answer) == (Py_ssize_t)n;
-        for (size_t k = 0; ok && k < n; k++) ok = read_item(kind, py.ListGetItem(answer, (Py_ssize_t)k), values, k);
-        if (!ok) {
-            char text[2048] = "the answer is not a list of the right length";
-            if (py.ErrOccurred()) exception_message(text, sizeof text);
-            log_error(inst, "%s failed: the FMU's Python code gave no usable values (%s)", call_name(call), text);
-            status = fmi2Error;
-        } else if (kind == KIND_STRING) { /* the texts live as long as the list: kept until the next call */
-            if (inst->strings) py.DecRef(inst->strings);
-            inst->strings = answer;
-            py.IncRef(answer);
-        }
-    }
-    return end(&f, slave_settle(inst, call_name(call), answer, status));
-}
-
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]) {
-    return get_values(c, CALL_fmi2GetReal, "get_real", KIND_REAL, vr, n, v);
+    return get_values(c, CALL_fmi2GetReal, "get_real", KIND_REAL, vr, n, v, n);
 }
 
 fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]) {
-    return get_values(c, CALL_fmi2GetInteger, "get_integer", KIND_INTEGER, vr, n, v);
+    return get_values(c, CALL_fmi2GetInteger, "get_integer", KIND_INTEGER, vr, n, v, n);
 }
 
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]) {
-    return get_values(c, CALL_fmi2GetBoolean, "get_boolean", KIND_BOOLEAN, vr, n, v);
+    return get_values(c, CALL_fmi2GetBoolean, "get_boolean", KIND_BOOLEAN, vr, n, v, n);
 }
 
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[]) {
-    return get_values(c, CALL_fmi2GetString, "get_string", KIND_STRING, vr, n, (void *)v);
-}
-
-/* The k-th value as a Python object (a new reference), or NULL. */
-static PyObject *value_object(Kind kind, const void *values, size_t k) {
-    switch (kind) {
-    case KIND_REAL: return py.FloatFromDouble(((const fmi2Real *)values)[k]);
-    case KIND_INTEGER: return py.LongFromLong(((const fmi2Integer *)values)[k]);
-    case KIND_BOOLEAN: return py.BoolFromLong(((const fmi2Boolean *)values)[k] != fmi2False);
-    case KIND_STRING: return py.UnicodeFromString(((const fmi2String *)values)[k]);
-    }
-    return NULL;
-}
-
-static fmi2Status set_values(fmi2Component c, Call call, const char *method, Kind kind, const fmi2ValueReference vr[],
-                             size_t n, const void *values) {
-    Frame f;
-    Instance *inst = allowed(c, call);
-    if (inst == NULL) return fmi2Error;
-    if (n == 0) return fmi2OK;
-    if (vr == NULL || values == NULL) return refuse(inst, call, "the value reference or value array is NULL");
-    for (size_t k = 0; kind == KIND_STRING && k < n; k++)
-        if (((const fmi2String *)values)[k] == NULL) return refuse(inst, call, "a string value is NULL");
-    char why[512];
-    const char *bad = variables_problem(vr, n, kind, 1, inst->state, why, sizeof why);
-    if (bad != NULL) return refuse(inst, call, bad);
-    if (!enter_python(inst, call, &f)) return fmi2Error;
-    PyObject *list = references(vr, n), *items = py.ListNew((Py_ssize_t)n);
-    for (size_t k = 0; items != NULL && k < n; k++) {
-        PyObject *item = value_object(kind, values, k);
-        if (item == NULL || py.ListSetItem(items, (Py_ssize_t)k, item) != 0) {
-            py.DecRef(items);
-            items = NULL;
-        }
-    }
-    PyObject *r = list && items ? py.CallMethod(inst->slave, method, "(OO)", list, items) : NULL;
-    if (list) py.DecRef(list);
-    if (items) py.DecRef(items);
-    return end(&f, slave_settle(inst, call_name(call), r, fmi2OK));
+    return get_values(c, CALL_fmi2GetString, "get_string", KIND_STRING, vr, n, (void *)v, n);
 }
 
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]) {
-    return set_values(c, CALL_fmi2SetReal, "set_real", KIND_REAL, vr, n, v);
+    return set_values(c, CALL_fmi2SetReal, "set_real", KIND_REAL, vr, n, v, n);
 }
 
 fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]) {
-    return set_values(c, CALL_fmi2SetInteger, "set_integer", KIND_INTEGER, vr, n, v);
+    return set_values(c, CALL_fmi2SetInteger, "set_integer", KIND_INTEGER, vr, n, v, n);
 }
 
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]) {
-    return set_values(c, CALL_fmi2SetBoolean, "set_boolean", KIND_BOOLEAN, vr, n, v);
+    return set_values(c, CALL_fmi2SetBoolean, "set_boolean", KIND_BOOLEAN, vr, n, v, n);
 }
 
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]) {
-    return set_values(c, CALL_fmi2SetString, "set_string", KIND_STRING, vr, n, (const void *)v);
+    return set_values(c, CALL_fmi2SetString, "set_string", KIND_STRING, vr, n, (const void *)v, n);
 }
 
 /* A function the modelDescription says this FMU does not provide: refused in every state. */

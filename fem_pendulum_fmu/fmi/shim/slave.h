@@ -8,6 +8,17 @@
 #include "fmu_states.h"
 #include "state_machine.h"
 
+/* What an FMI 3.0 host gave fmi3InstantiateCoSimulation (fmi3_functions.c); unused by the FMI 2.0 binary,
+ * whose logger is in `callbacks`. The FMI 3.0 binary puts an adapter there that calls `log_message`. */
+typedef struct {
+    void *environment;           /* instanceEnvironment, passed back to both callbacks */
+    void (*log_message)(void);   /* fmi3LogMessageCallback, or NULL: no logging */
+    void (*intermediate_update)(void); /* fmi3IntermediateUpdateCallback, or NULL */
+    int event_mode_used;
+    int early_return_allowed;
+    int in_step;                 /* inside fmi3DoStep: only the callback's calls are answered */
+} Fmi3Host;
+
 typedef struct {
     PyObject *slave;     /* the Python slave object; NULL when it could not be rebuilt at fmi2Reset */
     PyObject *cls;       /* its class and keyword arguments, for fmi2Reset */
@@ -24,6 +35,7 @@ typedef struct {
     char **categories;
     size_t n_categories;
     StateRegistry states;
+    Fmi3Host fmi3;
 } Instance;
 
 /* Log through the host's logger (the message is passed as a format string with each '%' doubled). */

@@ -15,11 +15,13 @@ typedef enum {
     STATE_INITIALIZATION_MODE = 1 << 1,
     STATE_STEP_COMPLETE = 1 << 2,
     STATE_TERMINATED = 1 << 3,
+    STATE_EVENT_MODE = 1 << 4, /* FMI 3.0 only (eventModeUsed): fmi3_functions.c */
 } MachineState;
 
-#define ANY_STATE (STATE_INSTANTIATED | STATE_INITIALIZATION_MODE | STATE_STEP_COMPLETE | STATE_TERMINATED)
-#define INITIALISED (STATE_INITIALIZATION_MODE | STATE_STEP_COMPLETE | STATE_TERMINATED)
-#define SETTABLE (STATE_INSTANTIATED | STATE_INITIALIZATION_MODE | STATE_STEP_COMPLETE)
+#define ANY_STATE \
+    (STATE_INSTANTIATED | STATE_INITIALIZATION_MODE | STATE_STEP_COMPLETE | STATE_TERMINATED | STATE_EVENT_MODE)
+#define INITIALISED (STATE_INITIALIZATION_MODE | STATE_STEP_COMPLETE | STATE_TERMINATED | STATE_EVENT_MODE)
+#define SETTABLE (STATE_INSTANTIATED | STATE_INITIALIZATION_MODE | STATE_STEP_COMPLETE | STATE_EVENT_MODE)
 #define NO_STATE 0 /* a function this FMU does not provide: refused in every state */
 /* input derivatives are inputs (FMI 2.0: the restrictions of fmi2SetReal); output derivatives are read
  * where the standard allows it of the states these FMUs enter: after a step and once terminated */
@@ -59,8 +61,16 @@ typedef enum {
     X(fmi2GetBooleanStatus, STATE_STEP_COMPLETE | STATE_TERMINATED)       \
     X(fmi2GetStringStatus, STATE_STEP_COMPLETE | STATE_TERMINATED)
 
+/* The FMI 3.0 binary (built with FMI3_BINARY defined) has its own table: fmi3_calls.h. */
+#ifdef FMI3_BINARY
+#include "fmi3_calls.h"
+#define FMU_CALLS FMI3_CALLS
+#else
+#define FMU_CALLS FMI2_CALLS
+#endif
+
 #define AS_ENUM(call, states) CALL_##call,
-typedef enum { FMI2_CALLS(AS_ENUM) N_CALLS } Call;
+typedef enum { FMU_CALLS(AS_ENUM) N_CALLS } Call;
 #undef AS_ENUM
 
 /* The states in which `call` is allowed (a mask of MachineState). */

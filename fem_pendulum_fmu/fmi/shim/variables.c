@@ -8,7 +8,11 @@ static const Variable variables[] = {
 };
 static const size_t n_variables = sizeof variables / sizeof variables[0];
 
-static const char *const kind_names[] = {"Real", "Integer", "Boolean", "String"};
+#ifdef FMI3_BINARY
+static const char *const kind_names[] = {"Float64", "Int32", "Boolean", "String", "Int64 (Enumeration)"};
+#else
+static const char *const kind_names[] = {"Real", "Integer", "Boolean", "String", "Int64"};
+#endif
 
 static const Variable *find(fmi2ValueReference vr, Kind kind) {
     if (vr < n_variables && variables[vr].vr == vr && variables[vr].kind == kind) return &variables[vr]; /* dense */
@@ -69,4 +73,15 @@ const char *derivatives_problem(const fmi2ValueReference vr[], size_t n, const f
         }
     }
     return NULL;
+}
+
+const char *count_problem(const fmi2ValueReference vr[], size_t n, size_t n_values, char *why, size_t size) {
+    size_t total = 0;
+    for (size_t k = 0; k < n; k++) {
+        const Variable *var = find_any(vr[k]);
+        total += var ? var->size : 1;
+    }
+    if (total == n_values) return NULL;
+    snprintf(why, size, "nValues is %zu, the %zu variables have %zu elements", n_values, n, total);
+    return why;
 }

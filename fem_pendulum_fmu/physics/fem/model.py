@@ -38,6 +38,7 @@ from ..protocol import (
     OutputDerivatives,
     Outputs,
     StepFailed,
+    StopAt,
     check_advance_args,
     restore_advance_summary,
 )
@@ -214,20 +215,20 @@ class FemModel:
         return self.measures.contact_impulse(x0.u, x1.u, dt, trapezoid)
 
     # ---------------------------------------------------------------- protocol
-    def advance(self, t_end: float, torque: Torque) -> Outputs:
+    def advance(self, t_end: float, torque: Torque, stop: StopAt | None = None) -> Outputs:
         check_advance_args(self.time, t_end, torque)
         torque = torque if isinstance(torque, TorqueProfile) else float(torque)
         held = self.newton.held
         try:
             with ngs.TaskManager() if self.scene.model.threads > 1 else nullcontext():
-                result = self._stepper(self, self._state, self.time, t_end, torque, self.control)
+                result = self._stepper(self, self._state, self.time, t_end, torque, self.control, stop)
         except StepFailed:
             # the held Jacobian is part of the state: put back the one from before the failed
             # advance, so that a retry continues exactly as if it had never been tried
             self.newton.held, self.newton.ready = held, False
             raise
         self._state = result.state
-        self.time = float(t_end)
+        self.time = result.end_time(float(t_end))
         self._outputs = self.measures.of(self._state, self.time, result.substeps)
         self.last_min_gap = result.finish(self._outputs)
         return self._outputs

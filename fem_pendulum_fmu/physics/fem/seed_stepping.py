@@ -19,12 +19,12 @@ import functools
 import math
 from collections.abc import Callable
 
-from ..protocol import StepFailed
+from ..protocol import StepFailed, StopAt
 from ..stepping import AdvanceResult, ContactTally, StepControl, Steppable, X, check_substeps
 from ..torque import Torque, as_profile
 
 # an advance's step control: stepping.advance, or this module's rules of one scheme (`stepper`)
-Stepper = Callable[[Steppable[X], X, float, float, Torque, StepControl], AdvanceResult[X]]
+Stepper = Callable[[Steppable[X], X, float, float, Torque, StepControl, StopAt | None], AdvanceResult[X]]
 
 GAP_RULE = ((1e-3, 1e-4), (5e-3, 5e-4), (1e-2, 1e-3))  # (gap below, step), the seed's thresholds
 
@@ -43,9 +43,18 @@ def stepper(scheme: str) -> Stepper:
 
 
 def advance(
-    model: Steppable[X], x: X, t: float, t_end: float, torque: Torque, control: StepControl, scheme: str
+    model: Steppable[X],
+    x: X,
+    t: float,
+    t_end: float,
+    torque: Torque,
+    control: StepControl,
+    stop: StopAt | None = None,
+    *,
+    scheme: str,
 ) -> AdvanceResult[X]:
-    """Integrate from t to t_end with the seed's step sizes; raises StepFailed like stepping.advance."""
+    """Integrate from t to t_end with the seed's step sizes; raises StepFailed like stepping.advance.
+    The seed's schemes, kept for comparison, never stop early: `stop` is not asked."""
     profile, t_start = as_profile(torque), t
     substeps = rejected = 0
     min_gap = math.inf

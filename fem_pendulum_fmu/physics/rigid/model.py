@@ -28,7 +28,15 @@ import numpy as np
 from ..contact_time import effective_mass
 from ..mass_properties import gravity_moment, mass_properties
 from ..output_rates import flow_derivatives, flow_step
-from ..protocol import BodyField, ModelState, OutputDerivatives, Outputs, check_advance_args, restore_advance_summary
+from ..protocol import (
+    BodyField,
+    ModelState,
+    OutputDerivatives,
+    Outputs,
+    StopAt,
+    check_advance_args,
+    restore_advance_summary,
+)
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepping import StepControl, SteppedModel, decayed_hold, finish_advance
 from ..torque import Torque, TorqueProfile
@@ -194,15 +202,21 @@ class RigidModel(SteppedModel[RigidState]):
         return pen.fx, pen.fy, pen.d_energy
 
     # ------------------------------------------------------------- advance
-    def advance(self, t_end: float, torque: Torque) -> Outputs:
+    def advance(self, t_end: float, torque: Torque, stop: StopAt | None = None) -> Outputs:
         """The protocol's advance: one free-flight step taken directly when it provably stays off the
-        block (`_free_step`, with the profile's mean torque over it), else the shared stepper (stepping.py)."""
+        block (`_free_step`, with the profile's mean torque over it; `stop` is told of it and cannot end
+        it earlier), else the shared stepper (stepping.py)."""
         t_end = float(t_end)
         torque = torque if isinstance(torque, TorqueProfile) else float(torque)
         check_advance_args(self.time, t_end, torque)
         mean = torque if isinstance(torque, float) else torque.mean(0.0, t_end - self.time)
+        gap0 = self._outputs.gap
         out = self._free_step(t_end, mean)
-        return out if out is not None else SteppedModel.advance(self, t_end, torque)
+        if out is None:
+            return SteppedModel.advance(self, t_end, torque, stop)
+        if stop is not None:
+            stop(t_end, gap0, out.gap)
+        return out
 
     def _free_step(self, t_end: float, torque: float) -> Outputs | None:
         """The advance to t_end as the single step the stepper would take in free flight, when no
