@@ -49,61 +49,41 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3Stri
     return NULL;
 }
 
-fmi3Status fmi3GetFloat32(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Float32 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3GetFloat32");
-}
+/* The scalar types this FMU has no variable of: Get and Set refuse them alike. */
+#define NOT_PROVIDED_GET(T)                                                                                        \
+    fmi3Status fmi3Get##T(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, \
+                          fmi3##T values[], size_t nValues) {                                                       \
+        (void)valueReferences;                                                                                     \
+        (void)nValueReferences;                                                                                    \
+        (void)values;                                                                                              \
+        (void)nValues;                                                                                             \
+        return not_provided(instance, "fmi3Get" #T);                                                               \
+    }
+#define NOT_PROVIDED_SET(T)                                                                                        \
+    fmi3Status fmi3Set##T(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, \
+                          const fmi3##T values[], size_t nValues) {                                                 \
+        (void)valueReferences;                                                                                     \
+        (void)nValueReferences;                                                                                    \
+        (void)values;                                                                                              \
+        (void)nValues;                                                                                             \
+        return not_provided(instance, "fmi3Set" #T);                                                               \
+    }
 
-fmi3Status fmi3GetInt8(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Int8 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3GetInt8");
-}
+NOT_PROVIDED_GET(Float32)
+NOT_PROVIDED_GET(Int8)
+NOT_PROVIDED_GET(UInt8)
+NOT_PROVIDED_GET(Int16)
+NOT_PROVIDED_GET(UInt16)
+NOT_PROVIDED_GET(UInt32)
+NOT_PROVIDED_GET(UInt64)
 
-fmi3Status fmi3GetUInt8(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3UInt8 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3GetUInt8");
-}
-
-fmi3Status fmi3GetInt16(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Int16 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3GetInt16");
-}
-
-fmi3Status fmi3GetUInt16(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3UInt16 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3GetUInt16");
-}
-
-fmi3Status fmi3GetUInt32(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3UInt32 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3GetUInt32");
-}
-
-fmi3Status fmi3GetUInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3UInt64 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3GetUInt64");
-}
+NOT_PROVIDED_SET(Float32)
+NOT_PROVIDED_SET(Int8)
+NOT_PROVIDED_SET(UInt8)
+NOT_PROVIDED_SET(Int16)
+NOT_PROVIDED_SET(UInt16)
+NOT_PROVIDED_SET(UInt32)
+NOT_PROVIDED_SET(UInt64)
 
 fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, size_t valueSizes[], fmi3Binary values[], size_t nValues) {
     (void)valueReferences;
@@ -119,62 +99,6 @@ fmi3Status fmi3GetClock(fmi3Instance instance, const fmi3ValueReference valueRef
     (void)nValueReferences;
     (void)values;
     return not_provided(instance, "fmi3GetClock");
-}
-
-fmi3Status fmi3SetFloat32(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Float32 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3SetFloat32");
-}
-
-fmi3Status fmi3SetInt8(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Int8 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3SetInt8");
-}
-
-fmi3Status fmi3SetUInt8(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt8 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3SetUInt8");
-}
-
-fmi3Status fmi3SetInt16(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Int16 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3SetInt16");
-}
-
-fmi3Status fmi3SetUInt16(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt16 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3SetUInt16");
-}
-
-fmi3Status fmi3SetUInt32(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt32 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3SetUInt32");
-}
-
-fmi3Status fmi3SetUInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt64 values[], size_t nValues) {
-    (void)valueReferences;
-    (void)nValueReferences;
-    (void)values;
-    (void)nValues;
-    return not_provided(instance, "fmi3SetUInt64");
 }
 
 fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const size_t valueSizes[], const fmi3Binary values[], size_t nValues) {
