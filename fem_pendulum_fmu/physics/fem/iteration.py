@@ -80,7 +80,7 @@ class FusedIteration:
 
     def iterate(self, contact: bool, turn: float) -> float:
         it, factor = self._it, self._factor
-        if factor.kernel_args is not self._factor_args:  # factorised anew since the last call
+        if factor.kernel_args is not self._factor_args:  # factors in new arrays (a new pattern, or SuperLU's)
             self._factor_args = factor.kernel_args
             it.lu = _Factors(*factor.kernel_args, factor.work_at)
         it.inertia, it.half_torque = self._split.linear.coefficients
