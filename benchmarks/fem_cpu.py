@@ -1,6 +1,7 @@
 """CPU time per simulated second of the default fem fidelity on the steel scene, 1 ms communication steps.
 
-    python benchmarks/fem_cpu.py [--t-end 1.0] [--repeat 3] [--preset stiff|compliant] [--deformable-wall] [--profile N]
+    python benchmarks/fem_cpu.py [--t-end 1.0] [--repeat 3] [--preset stiff|compliant] [--deformable-wall]
+                                 [--profile N [--impacts]]
 
 The steel scene (stiff(): rigid wall, released at 20 degrees, no torque; or the
 rubber one, compliant(), order 3; --deformable-wall: the seed's meshed wall
@@ -16,7 +17,10 @@ the largest energy error over the swing energy) so that a faster run can be
 checked to be the same run. With --profile N it runs once under cProfile and
 prints the N entries with the most internal time (the profile of docs/fem.md),
 then NGSolve's own timers of that run with the most time (calls and seconds:
-residuals, assemblies, factorisations, contact pairs).
+residuals, assemblies, factorisations, contact pairs). With --impacts as well,
+the profile is of the impact doSteps alone (those of more than two internal
+steps), and their wall times are printed (docs/fem.md, "Each change and what
+it bought").
 """
 
 from __future__ import annotations
@@ -62,6 +66,23 @@ def run(t_end: float, preset: str, deformable_wall: bool = False) -> dict[str, f
     }
 
 
+def profile_impacts(t_end: float, preset: str, deformable_wall: bool, entries: int) -> None:
+    """Profile the doSteps of more than two internal steps (the impacts) of one run; print their wall times."""
+    model = FemModel(PRESETS[preset](**({"wall.kind": "deformable"} if deformable_wall else {})))
+    stats, impacts = None, []
+    for i in range(1, round(t_end / 1e-3) + 1):
+        profiler = cProfile.Profile()
+        w0 = time.perf_counter()
+        out = profiler.runcall(model.advance, i * 1e-3, 0.0)
+        wall = time.perf_counter() - w0
+        if out.substeps > 2:
+            impacts.append(f"{i * 1e-3:.3f} s: {out.substeps} steps {1e3 * wall:.2f} ms")
+            stats = pstats.Stats(profiler) if stats is None else stats.add(profiler)
+    if stats is not None:
+        stats.sort_stats("tottime").print_stats(entries)
+    print("impact doSteps (under cProfile):", "; ".join(impacts), "load average", os.getloadavg())
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--t-end", type=float, default=1.0, help="simulated seconds per run")
@@ -69,7 +90,11 @@ def main() -> None:
     parser.add_argument("--preset", choices=sorted(PRESETS), default="stiff", help="the scene")
     parser.add_argument("--deformable-wall", action="store_true", help="the meshed (deformable) wall block")
     parser.add_argument("--profile", type=int, default=0, help="run once under cProfile, print this many entries")
+    parser.add_argument("--impacts", action="store_true", help="with --profile: the impact doSteps alone")
     args = parser.parse_args()
+    if args.profile and args.impacts:
+        profile_impacts(args.t_end, args.preset, args.deformable_wall, args.profile)
+        return
     if args.profile:
         profiler = cProfile.Profile()
         result = profiler.runcall(run, args.t_end, args.preset, args.deformable_wall)
