@@ -65,6 +65,31 @@ def test_split_residual_in_contact_equals_the_form(kernels: str) -> None:
     assert np.max(np.abs(full - split)) <= RESIDUAL_RTOL * np.max(np.abs(full))
 
 
+def test_compiled_rigid_wall_term_equals_its_form_in_penetration() -> None:
+    """The rigid-wall contact term of the kernel (fem/rigid_contact.py) against the contact form's Apply, with
+    the head inside the block: equal to 2.3e-16 of the largest entry (measured), so to 1e-13."""
+    if native.kernels() is None:
+        pytest.fail("no C compiler: the compiled kernel cannot be tested on this machine")
+    model = FemModel(stiff())
+    t = 0.0
+    while model.outputs().gap >= 0.0:
+        t += 1e-4
+        model.advance(t, 0.0)
+        assert t < 0.3, "the pendulum never reached the wall"
+    split, xs, nV = model.form.split, model._state, model.space.nV
+    assert split is not None and split.compiled_contact_address
+    for dt in (1e-5, 3e-5):
+        model.load_step(xs, dt, 0.0)
+        w = model.newton.w.vec
+        w.FV().NumPy()[:nV] = xs.u + dt * xs.v
+        form, compiled = w.CreateVector(), w.CreateVector()
+        split._contact.Apply(w, form)
+        assert split.apply_contact(w, compiled)
+        expected = form.FV().NumPy()
+        assert np.max(np.abs(expected)) > 100.0  # newtons: the head is in the block
+        assert np.max(np.abs(compiled.FV().NumPy() - expected)) <= 1e-13 * np.max(np.abs(expected))
+
+
 def test_min_det_F_at_the_forms_points_equals_the_outputs() -> None:
     model = FemModel(compliant())
     for k in range(5):

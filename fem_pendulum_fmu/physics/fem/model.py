@@ -48,6 +48,7 @@ from ..torque import Torque, TorqueProfile
 from .head import HeadBoundary
 from .newton import HeldJacobianNewton, Turn
 from .outputs import FemOutputs
+from .rigid_contact import compiled_contact
 from .schemes import newmark_start_acceleration, scheme_for
 from .seed_stepping import Stepper
 from .space import FIDELITY, FemState, fem_space, step_inputs
@@ -83,6 +84,8 @@ class FemModel:
         split = self.form.split
         strain = None if split is None else split.elastic.strain_energy
         self.measures = FemOutputs(self.space, self.inputs, self.head, strain)
+        if split is not None:
+            split.use_compiled_contact(compiled_contact(self.space, self.head))
         self.loader = StepLoader(self.inputs, self.form, self.head)
         turn = Turn(self.space, self.measures.rotation_angle)
         residual = split or self.form.form.Apply

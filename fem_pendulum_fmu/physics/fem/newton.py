@@ -213,7 +213,7 @@ class HeldJacobianNewton:
                 refresh = False
                 turn = 0.0
             if self._fused is not None and self._split is not None:
-                size = self._fused.iterate(self._split.apply_contact(self.w.vec, res), turn)
+                size = self._fused.iterate(self._split.fused_contact(self.w.vec, res), turn)
             else:
                 self._apply(self.w.vec, res)
                 size = self._update(turn)
