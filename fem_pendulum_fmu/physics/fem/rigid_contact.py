@@ -59,10 +59,12 @@ class RigidContactKernel:
         data = np.ascontiguousarray(trace.data, dtype=float)
         self._X = np.ascontiguousarray(head.X.T.ravel())  # x coordinates, then y
         self._p0 = self._X.copy()
+        self._u0 = np.zeros(head.trace.shape[1])
         weights = space.scene.pendulum.thickness * ds_weights(space, head)
         b = space.scene.block
         block = np.array([b.x_min, b.x_max, b.y_min, b.y_max])
-        self._points = np.zeros(0, dtype=np.int32)
+        self._points: np.ndarray = np.zeros(0, dtype=np.int32)
+        self._per_element = len(weights) // len(head.elements)  # the points of local element e: nq e + 0..nq-1
         self._keep = (indptr, indices, data, weights, block)  # the arrays the struct points to
         c = self._c = _Contact(0, self._points.ctypes.data, len(weights), indptr.ctypes.data, indices.ctypes.data)
         c.data, c.X, c.p0, c.weights = data.ctypes.data, self._X.ctypes.data, self._p0.ctypes.data, weights.ctypes.data
@@ -70,13 +72,19 @@ class RigidContactKernel:
         self.address = ctypes.addressof(c)
 
     def load(self, u0: np.ndarray) -> None:
-        """The step's start positions at the points."""
-        self._p0[:] = self._X + self._head.trace @ u0
+        """The step's start displacement: its positions at the points are made once a point is listed."""
+        self._u0 = u0
 
     def activate(self, elements: np.ndarray) -> None:
-        """The contact set: these head elements (local indices), as HeadBoundary.activate marks them."""
-        self._points = np.flatnonzero(np.isin(self._head.point_element, elements)).astype(np.int32)
+        """The contact set: these head elements (local indices), as HeadBoundary.activate marks them. Free
+        flight, an empty set, costs neither the points' list nor their start positions."""
+        if len(elements) == 0 and self._c.n == 0:
+            return
+        nq = self._per_element
+        self._points = (np.asarray(elements, dtype=np.int32)[:, None] * nq + np.arange(nq, dtype=np.int32)).ravel()
         self._c.n, self._c.points = len(self._points), self._points.ctypes.data
+        if len(self._points):
+            self._p0[:] = self._X + self._head.trace @ self._u0
 
     def apply(self, w: np.ndarray, res: np.ndarray) -> bool:
         """res = the term at w (float64 arrays over the solver's unknowns, displacements first)."""
