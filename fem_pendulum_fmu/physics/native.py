@@ -53,6 +53,7 @@ SIGNATURES = {
     "femp_stress_tangent": (_I, _P, _P, _P, _I, _P, _P, _P, _P, _D, _D, _I, _P, _P, _P, _P, _P),
     "femp_iterate": (_P, _I, _I, _D, _D),
     "femp_rigid_contact": (_P, _P, _I, _P),
+    "femp_rigid_contact_resultant": (_P, _P, _P, _P),
     "femp_reduced_strain_energy": (_P, _P),
     "femp_reduced_strain_gradient": (_P, _P, _P),
     "femp_reduced_strain_hessian": (_P, _P, _P),

@@ -81,11 +81,11 @@ class FemModel:
         self.inputs = step_inputs(self.space)
         self.form = self.scheme.build(self.space, self.inputs)
         self.head = HeadBoundary(self.space)
-        split = self.form.split
+        split, contact = self.form.split, compiled_contact(self.space, self.head)
         strain = None if split is None else split.elastic.strain_energy
-        self.measures = FemOutputs(self.space, self.inputs, self.head, strain)
+        self.measures = FemOutputs(self.space, self.inputs, self.head, strain, contact)
         if split is not None:
-            split.use_compiled_contact(compiled_contact(self.space, self.head))
+            split.use_compiled_contact(contact)
         self.loader = StepLoader(self.inputs, self.form, self.head)
         turn = Turn(self.space, self.measures.rotation_angle)
         residual = split or self.form.form.Apply

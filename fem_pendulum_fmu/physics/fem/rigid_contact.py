@@ -89,3 +89,10 @@ class RigidContactKernel:
     def apply(self, w: np.ndarray, res: np.ndarray) -> bool:
         """res = the term at w (float64 arrays over the solver's unknowns, displacements first)."""
         return bool(self._lib.femp_rigid_contact(self.address, w.ctypes.data, len(res), res.ctypes.data))
+
+    def resultant(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+        """The force of the wall on the pendulum that the term applies from the points' positions p0 to p1
+        ((P, 2) arrays, C order) over all points; p0 = p1: the penalty force at them (N, vector)."""
+        out, a, b = np.empty(2), np.ascontiguousarray(p0, dtype=float), np.ascontiguousarray(p1, dtype=float)
+        self._lib.femp_rigid_contact_resultant(self.address, a.ctypes.data, b.ctypes.data, out.ctypes.data)
+        return out

@@ -73,3 +73,18 @@ int femp_rigid_contact(const struct femp_rigid_contact *c, const double *u, int 
     }
     return 1;
 }
+
+/* out = the resultant of the term's forces from the positions p0 to p1 (each P x 2, interleaved) over all P
+ * points: the force of the wall on the body that the step applies (p0 = p1: the penalty force at them) */
+void femp_rigid_contact_resultant(const struct femp_rigid_contact *c, const double *p0, const double *p1,
+                                  double *out) {
+    double fx = 0.0, fy = 0.0;
+    for (int i = 0; i < c->P; ++i) {
+        double f[2];
+        dg_force(c->block, c->k, p0[2 * i], p0[2 * i + 1], p1[2 * i], p1[2 * i + 1], f);
+        fx += c->weights[i] * f[0];
+        fy += c->weights[i] * f[1];
+    }
+    out[0] = fx;
+    out[1] = fy;
+}
