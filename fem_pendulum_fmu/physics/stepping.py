@@ -17,7 +17,10 @@ The rule, in words (it is what `solver.max_step` and `solver.tolerance` mean):
   drives see its shape; never more than `ceil(pi / sqrt(12 tol))` (29 at
   tol = 1e-3), the rule that holds the relative error of T itself to `tol`,
   which a contact as long as a free-flight step needs anyway. At the default
-  tolerance and step a steel contact (T about 0.34 ms) takes 16 steps;
+  tolerance and step a steel contact (T about 0.34 ms) takes 16 steps. A
+  model whose contact needs more keeps the phase rule throughout
+  (`StepControl.timing_rule` False: the reduced model on soft bodies, the FE
+  model against the meshed wall; their reasons are where they choose it);
 * a held contact takes free-flight steps again, with no onset location: one
   whose hold exceeds `HELD_CONTACTS` estimated contact durations and whose
   force is no more than `HELD_FORCE` times what the torque and gravity can
