@@ -9,7 +9,8 @@ block instead of the rigid one) on the default mesh, advanced in 1 ms communicat
 (outputs computed at every step), timed with time.process_time (CPU time of
 this process, less disturbed than wall time by other jobs on a shared
 machine); prints the best of `repeat` runs, the wall time of that run, the
-load average, the internal steps, the solver's counts (Newton iterations,
+load average, the internal steps, the wall times of every run's impact doSteps
+(those of more than two internal steps), the solver's counts (Newton iterations,
 Jacobians assembled, refactorisations for a new step size, factorisations
 left to SuperLU: measures of cost that load does not disturb), and the
 accuracy figures (theta at the end,
@@ -45,10 +46,13 @@ def run(t_end: float, preset: str, deformable_wall: bool = False) -> dict[str, f
     e0 = model.outputs().total
     swing = swing_energy(model.scene)
     steps = round(t_end / 1e-3)
-    e_err, substeps = 0.0, 0
+    e_err, substeps, impacts = 0.0, 0, []
     c0, w0 = time.process_time(), time.perf_counter()
     for i in range(1, steps + 1):
+        s0 = time.perf_counter()
         o = model.advance(i * 1e-3, 0.0)
+        if o.substeps > 2:  # an impact doStep: its wall time, in ms
+            impacts.append(round(1e3 * (time.perf_counter() - s0), 2))
         e_err = max(e_err, abs(o.total - o.torque_work - e0))
         substeps += o.substeps
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
@@ -63,6 +67,7 @@ def run(t_end: float, preset: str, deformable_wall: bool = False) -> dict[str, f
         "by_superlu": model.newton.by_superlu,
         "theta_end": o.theta,
         "energy_error_rel": e_err / swing,
+        "impact_ms": impacts,
     }
 
 
@@ -114,7 +119,8 @@ def main() -> None:
         f"wall {best['wall_per_sim_s']:.3f} s/sim s, load average {load}, {best['substeps']} internal steps, "
         f"theta(end) {best['theta_end']:.12f} rad, energy error / swing {best['energy_error_rel']:.2e}; "
         f"Newton iterations {best['iterations']}, Jacobians {best['jacobians']}, rescaled refactorisations "
-        f"{best['rescaled']}, factorisations by SuperLU {best['by_superlu']}"
+        f"{best['rescaled']}, factorisations by SuperLU {best['by_superlu']}; impact doSteps (ms, wall): "
+        f"{', '.join(' '.join(map(str, r['impact_ms'])) for r in runs)}"
     )
     assert np.isfinite(best["theta_end"])
 
