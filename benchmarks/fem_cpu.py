@@ -1,6 +1,7 @@
 """CPU time per simulated second of the default fem fidelity on the steel scene, 1 ms communication steps.
 
-    python benchmarks/fem_cpu.py [--t-end 1.0] [--repeat 3] [--preset stiff|compliant] [--deformable-wall] [--profile N]
+    python benchmarks/fem_cpu.py [--t-end 1.0] [--repeat 3] [--preset stiff|compliant] [--deformable-wall]
+                                 [--profile N [--impacts]]
 
 The steel scene (stiff(): rigid wall, released at 20 degrees, no torque; or the
 rubber one, compliant(), order 3; --deformable-wall: the seed's meshed wall
@@ -8,7 +9,8 @@ block instead of the rigid one) on the default mesh, advanced in 1 ms communicat
 (outputs computed at every step), timed with time.process_time (CPU time of
 this process, less disturbed than wall time by other jobs on a shared
 machine); prints the best of `repeat` runs, the wall time of that run, the
-load average, the internal steps, the solver's counts (Newton iterations,
+load average, the internal steps, the wall times of every run's impact doSteps
+(those of more than two internal steps), the solver's counts (Newton iterations,
 Jacobians assembled, refactorisations for a new step size, factorisations
 left to SuperLU: measures of cost that load does not disturb), and the
 accuracy figures (theta at the end,
@@ -16,7 +18,10 @@ the largest energy error over the swing energy) so that a faster run can be
 checked to be the same run. With --profile N it runs once under cProfile and
 prints the N entries with the most internal time (the profile of docs/fem.md),
 then NGSolve's own timers of that run with the most time (calls and seconds:
-residuals, assemblies, factorisations, contact pairs).
+residuals, assemblies, factorisations, contact pairs). With --impacts as well,
+the profile is of the impact doSteps alone (those of more than two internal
+steps), and their wall times are printed (docs/fem.md, "Each change and what
+it bought").
 """
 
 from __future__ import annotations
@@ -41,10 +46,13 @@ def run(t_end: float, preset: str, deformable_wall: bool = False) -> dict[str, f
     e0 = model.outputs().total
     swing = swing_energy(model.scene)
     steps = round(t_end / 1e-3)
-    e_err, substeps = 0.0, 0
+    e_err, substeps, impacts = 0.0, 0, []
     c0, w0 = time.process_time(), time.perf_counter()
     for i in range(1, steps + 1):
+        s0 = time.perf_counter()
         o = model.advance(i * 1e-3, 0.0)
+        if o.substeps > 2:  # an impact doStep: its wall time, in ms
+            impacts.append(round(1e3 * (time.perf_counter() - s0), 2))
         e_err = max(e_err, abs(o.total - o.torque_work - e0))
         substeps += o.substeps
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
@@ -59,7 +67,25 @@ def run(t_end: float, preset: str, deformable_wall: bool = False) -> dict[str, f
         "by_superlu": model.newton.by_superlu,
         "theta_end": o.theta,
         "energy_error_rel": e_err / swing,
+        "impact_ms": impacts,
     }
+
+
+def profile_impacts(t_end: float, preset: str, deformable_wall: bool, entries: int) -> None:
+    """Profile the doSteps of more than two internal steps (the impacts) of one run; print their wall times."""
+    model = FemModel(PRESETS[preset](**({"wall.kind": "deformable"} if deformable_wall else {})))
+    stats, impacts = None, []
+    for i in range(1, round(t_end / 1e-3) + 1):
+        profiler = cProfile.Profile()
+        w0 = time.perf_counter()
+        out = profiler.runcall(model.advance, i * 1e-3, 0.0)
+        wall = time.perf_counter() - w0
+        if out.substeps > 2:
+            impacts.append(f"{i * 1e-3:.3f} s: {out.substeps} steps {1e3 * wall:.2f} ms")
+            stats = pstats.Stats(profiler) if stats is None else stats.add(profiler)
+    if stats is not None:
+        stats.sort_stats("tottime").print_stats(entries)
+    print("impact doSteps (under cProfile):", "; ".join(impacts), "load average", os.getloadavg())
 
 
 def main() -> None:
@@ -69,7 +95,11 @@ def main() -> None:
     parser.add_argument("--preset", choices=sorted(PRESETS), default="stiff", help="the scene")
     parser.add_argument("--deformable-wall", action="store_true", help="the meshed (deformable) wall block")
     parser.add_argument("--profile", type=int, default=0, help="run once under cProfile, print this many entries")
+    parser.add_argument("--impacts", action="store_true", help="with --profile: the impact doSteps alone")
     args = parser.parse_args()
+    if args.profile and args.impacts:
+        profile_impacts(args.t_end, args.preset, args.deformable_wall, args.profile)
+        return
     if args.profile:
         profiler = cProfile.Profile()
         result = profiler.runcall(run, args.t_end, args.preset, args.deformable_wall)
@@ -89,7 +119,8 @@ def main() -> None:
         f"wall {best['wall_per_sim_s']:.3f} s/sim s, load average {load}, {best['substeps']} internal steps, "
         f"theta(end) {best['theta_end']:.12f} rad, energy error / swing {best['energy_error_rel']:.2e}; "
         f"Newton iterations {best['iterations']}, Jacobians {best['jacobians']}, rescaled refactorisations "
-        f"{best['rescaled']}, factorisations by SuperLU {best['by_superlu']}"
+        f"{best['rescaled']}, factorisations by SuperLU {best['by_superlu']}; impact doSteps (ms, wall): "
+        f"{', '.join(' '.join(map(str, r['impact_ms'])) for r in runs)}"
     )
     assert np.isfinite(best["theta_end"])
 

@@ -42,7 +42,7 @@ ENERGY = {
     "rubber_pulse": {"fem": 1e-2},  # strain increments ~0.1 per step; the energy guard holds each step to 1e-3
     "deformable_wall": {"fem": 5e-3},  # contact pairs fixed at the step start: entry and exit approximate
 }
-# internal steps per simulated ms: free flight 0.5 (2 ms steps) plus 29 steps per contact duration;
+# internal steps per simulated ms: free flight 0.5 (2 ms steps) plus 16 to 29 steps per contact duration;
 # a held contact takes free-flight steps after three contact durations (stepping.py): the resting case
 # measured 1.32 (rigid) to 1.52 (reduced) per ms over 0.3 s in 1 ms doSteps (docs/robustness.md)
 STEPS_PER_MS = {

@@ -1,4 +1,5 @@
-"""Compiled inner loops (fem/elastic_kernel.c, reduced/reduced_kernel.c): built once per machine, cached.
+"""Compiled inner loops (fem/elastic_kernel.c, fem/rigid_contact_kernel.c, reduced/reduced_kernel.c): built once per
+machine, cached.
 
 At the FE model's size (300-700 unknowns) a residual is a few hundred
 thousand floating-point operations, which NGSolve's integrators and numpy
@@ -28,7 +29,10 @@ from pathlib import Path
 from .cache import cached_file
 
 LOG = logging.getLogger("fem_pendulum_fmu")
-SOURCES = tuple(Path(__file__).parent / name for name in ("fem/elastic_kernel.c", "reduced/reduced_kernel.c"))
+SOURCES = tuple(
+    Path(__file__).parent / name
+    for name in ("fem/elastic_kernel.c", "fem/rigid_contact_kernel.c", "reduced/reduced_kernel.c")
+)
 ENV = "FEM_PENDULUM_KERNELS"  # "numpy": never compile, use the numpy forms
 # no -ffast-math and no contraction into fused multiply-adds: the same sums in the same order on every run
 FLAGS = ("-O3", "-shared", "-fPIC", "-ffp-contract=off")
@@ -48,6 +52,8 @@ SIGNATURES = {
     "femp_lu_factor": (_I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _D, _P),
     "femp_stress_tangent": (_I, _P, _P, _P, _I, _P, _P, _P, _P, _D, _D, _I, _P, _P, _P, _P, _P),
     "femp_iterate": (_P, _I, _I, _D, _D),
+    "femp_rigid_contact": (_P, _P, _I, _P),
+    "femp_rigid_contact_resultant": (_P, _P, _P, _P),
     "femp_reduced_strain_energy": (_P, _P),
     "femp_reduced_strain_gradient": (_P, _P, _P),
     "femp_reduced_strain_hessian": (_P, _P, _P),
@@ -58,6 +64,7 @@ SIGNATURES = {
 RESULTS = {
     **{name: ctypes.c_double for name in ("femp_update", "femp_min_det", "femp_strain_energy", "femp_lu_factor")},
     "femp_iterate": ctypes.c_double,
+    "femp_rigid_contact": ctypes.c_int,
     **{name: ctypes.c_double for name in ("femp_reduced_strain_energy", "femp_reduced_gap")},
     "femp_reduced_step": ctypes.c_int,
 }

@@ -330,6 +330,8 @@ struct femp_factors {
     const double *Ux, *u_diag;
     double *work;
 };
+struct femp_rigid_contact; /* fem/rigid_contact_kernel.c */
+int femp_rigid_contact(const struct femp_rigid_contact *c, const double *u, int size, double *res);
 struct femp_iteration {
     int size, n_disp, nS, n_bodies;
     struct femp_body bodies[2];
@@ -340,15 +342,19 @@ struct femp_iteration {
     int nturn;
     const int *ix, *iy;
     double *res, *moved, *turned, *corr, *w;
+    const struct femp_rigid_contact *contact; /* NULL: none compiled */
 };
 
 static void csr_axpy(const struct femp_csr *m, double a, const double *x, double *out) {
     femp_csr_axpy(m->n, m->indptr, m->indices, m->data, a, x, out);
 }
 
+/* res_holds_contact: 1 if res holds the contact term, 0 if there is none, 2 to make the compiled rigid-wall
+ * term here (fem/rigid_contact.py) */
 double femp_iterate(const struct femp_iteration *it, int res_holds_contact, int turn, double c, double s) {
     int size = it->size;
     double *res = it->res;
+    if (res_holds_contact == 2) res_holds_contact = femp_rigid_contact(it->contact, it->w, size, res);
     if (res_holds_contact)
         for (int i = 0; i < size; ++i) res[i] += it->constant[i];
     else

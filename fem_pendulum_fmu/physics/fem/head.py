@@ -62,6 +62,11 @@ class HeadBoundary:
         # (u, positions, signed distances to the undeformed block, normals) of the last two u asked about
         self._distances: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
 
+    @property
+    def trace(self) -> scipy.sparse.csr_matrix:
+        """The (2P x nV) matrix of a displacement's values at the points (trace_matrix)."""
+        return self._trace
+
     def positions(self, u: np.ndarray) -> np.ndarray:
         return self.X + self.values(u)
 

@@ -43,7 +43,7 @@ class _Iteration(ctypes.Structure):
     _fields_ = [("size", _I), ("n_disp", _I), ("nS", _I), ("n_bodies", _I), ("bodies", _Body * 2)]
     _fields_ += [("mass", _Csr), ("hinge", _Csr), ("torque", _Csr), ("constant", _P), ("wv", _P)]
     _fields_ += [("inertia", _D), ("half_torque", _D), ("lu", _Factors), ("nturn", _I), ("ix", _P), ("iy", _P)]
-    _fields_ += [("res", _P), ("moved", _P), ("turned", _P), ("corr", _P), ("w", _P)]
+    _fields_ += [("res", _P), ("moved", _P), ("turned", _P), ("corr", _P), ("w", _P), ("contact", _P)]
 
 
 class FusedIteration:
@@ -75,12 +75,15 @@ class FusedIteration:
         it.nturn, it.ix, it.iy = turn_args
         it.res, it.moved, it.turned = res.ctypes.data, moved, turned.ctypes.data
         it.corr, it.w = corr.ctypes.data, w.ctypes.data
+        it.contact = split.compiled_contact_address  # the rigid-wall term made in the call (0: none)
         self._ref = ctypes.byref(it)
         self._factor_args: tuple = ()
 
-    def iterate(self, contact: bool, turn: float) -> float:
+    def iterate(self, contact: int, turn: float) -> float:
+        """contact: 1 if the residual vector holds the contact term, 0 if none acts, 2 to make the compiled
+        rigid-wall term in the call (SplitResidual.fused_contact)."""
         it, factor = self._it, self._factor
-        if factor.kernel_args is not self._factor_args:  # factorised anew since the last call
+        if factor.kernel_args is not self._factor_args:  # factors in new arrays (a new pattern, or SuperLU's)
             self._factor_args = factor.kernel_args
             it.lu = _Factors(*factor.kernel_args, factor.work_at)
         it.inertia, it.half_torque = self._split.linear.coefficients

@@ -20,7 +20,7 @@ alone, so a restored model refactorises bit-identically.
 from __future__ import annotations
 
 import ctypes
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import ngsolve as ngs
 import numpy as np
@@ -112,6 +112,18 @@ class Symbolic:
     u_diag: np.ndarray
     scale: np.ndarray
     work: np.ndarray  # the kernel's dense column, all zero between calls
+    # the addresses femp_lu_factor and femp_lu_solve take, made once per pattern: the arrays stay where they are
+    factor_at: tuple[tuple[int, ...], tuple[int, ...], int] = field(init=False)
+    solve_at: tuple[int, ...] = field(init=False)
+    solve_args: tuple = field(init=False, default=())
+
+    def __post_init__(self) -> None:
+        pattern = (self.Ap, self.Ai)
+        factors = (self.pos, self.order, self.Lp, self.Li, self.Lx, self.Up, self.Ui, self.Ux, self.u_diag, self.scale)
+        at = (tuple(a.ctypes.data for a in pattern), tuple(a.ctypes.data for a in factors), self.work.ctypes.data)
+        self.factor_at = at
+        solved = (self.scale, self.pos, self.pos, self.Lp, self.Li, self.Lx, self.Up, self.Ui, self.Ux, self.u_diag)
+        self.solve_at = tuple(a.ctypes.data for a in solved)
 
     @staticmethod
     def of(pattern: Pattern, last: np.ndarray) -> Symbolic:
@@ -142,15 +154,15 @@ class Symbolic:
     def factorise(self, lib: ctypes.CDLL, entries: np.ndarray) -> bool:
         """Factorise the matrix with these entries on its pattern into the arrays here; False where a pivot
         is refused (the arrays are then not factors)."""
-        arrays = [self.Ap, self.Ai, entries, self.pos, self.order, self.Lp, self.Li, self.Lx]
-        arrays += [self.Up, self.Ui, self.Ux, self.u_diag, self.scale]
-        at = [a.ctypes.data for a in arrays]
-        return lib.femp_lu_factor(len(self.pos), *at, PIVOT_MIN, self.work.ctypes.data) == 0.0
+        (pattern, factors, work), n = self.factor_at, len(self.pos)
+        return lib.femp_lu_factor(n, *pattern, entries.ctypes.data, *factors, PIVOT_MIN, work) == 0.0
 
     def kernel_args(self, free: np.ndarray) -> tuple:
-        """femp_lu_solve's LU arguments for these factors (positions as both row and column permutation)."""
-        arrays = (self.scale, self.pos, self.pos, self.Lp, self.Li, self.Lx, self.Up, self.Ui, self.Ux, self.u_diag)
-        return (len(free), free.ctypes.data, *(a.ctypes.data for a in arrays))
+        """femp_lu_solve's LU arguments for these factors (positions as both row and column permutation): the
+        same tuple at every call for the same `free`, so that the fused iteration keeps the struct it made of it."""
+        if not self.solve_args or self.solve_args[1] != free.ctypes.data:
+            self.solve_args = (len(free), free.ctypes.data, *self.solve_at)
+        return self.solve_args
 
 
 class HeldFactor:

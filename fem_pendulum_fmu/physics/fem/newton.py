@@ -51,6 +51,12 @@ from .step_load import JacobianPoint, StepLoad
 # twice the Jacobians, no faster (docs/fem.md, "Jacobians and factors in the kernel").
 NEWTON_MAX_IT = 30
 SLOWEST_CONTRACTION = 0.7
+# A solve re-assembles its Jacobian at most this many times; one that would need more fails, and the step
+# control halves the step. In the rubber's held contacts (1 ms steps, head points entering and leaving the
+# wall within a step) refreshed Jacobians did not contract better: single doSteps re-assembled 86-110 times
+# in 6 steps (108-130 ms). Rubber, 2 s: 272 Jacobians instead of 616, the slowest doStep 37 instead of 92
+# times the median; theta up to the second impact the same (docs/fem.md, "Each change and what it bought").
+MAX_REFRESHES = 3
 # Converged when the error left (converged()) is under this share of the step's displacement (largest
 # |dt v|), plus 1e-15 m. 1e-9 took 7 % fewer iterations on the steel swing, but with the mean-velocity start
 # guess (FemModel._guess) the energy balance across an impact in 0.1 s doSteps moved to 3.5e-7 of the
@@ -206,14 +212,17 @@ class HeldJacobianNewton:
             refresh = not self._rescale(dt)
         # the pendulum's rotation since the start of the step the held Jacobian was assembled in
         turn = 0.0 if self.held is None else self._turn.angle(step.u0) - self._turn.angle(self.held.load.u0)
-        last, tol = math.inf, NEWTON_RTOL * scale + 1e-15
+        last, tol, refreshes = math.inf, NEWTON_RTOL * scale + 1e-15, 0
         for it in range(NEWTON_MAX_IT):
             if refresh:
+                if refreshes == MAX_REFRESHES:
+                    return None  # new Jacobians do not help this step: a shorter one (MAX_REFRESHES)
+                refreshes += 1
                 self._refresh(step)
                 refresh = False
                 turn = 0.0
             if self._fused is not None and self._split is not None:
-                size = self._fused.iterate(self._split.apply_contact(self.w.vec, res), turn)
+                size = self._fused.iterate(self._split.fused_contact(self.w.vec, res), turn)
             else:
                 self._apply(self.w.vec, res)
                 size = self._update(turn)

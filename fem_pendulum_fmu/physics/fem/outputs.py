@@ -20,6 +20,7 @@ from ..protocol import BodyField, Outputs
 from ..sparse import scipy_matrix
 from . import contact_law
 from .head import HeadBoundary
+from .rigid_contact import RigidContactKernel
 from .space import FemSpace, FemState, StepInputs
 from .wall import CLEAR_OF_FACE, WallContact
 
@@ -37,10 +38,13 @@ class FemOutputs:
         inputs: StepInputs,
         head: HeadBoundary,
         strain_energy: Callable[[np.ndarray], float] | None = None,
+        compiled_contact: RigidContactKernel | None = None,
     ):
         """strain_energy(u): the step form's own strain energy of u (residual.ElasticTerms), where
-        the model has one; else the energy density is integrated here, by the same rule."""
-        self._space, self._head = space, head
+        the model has one; else the energy density is integrated here, by the same rule. compiled_contact:
+        the rigid-wall term's kernel (fem/rigid_contact.py), which then sums the contact force and impulse
+        of the step control's tally at the head points instead of NGSolve's Integrate."""
+        self._space, self._head, self._compiled = space, head, compiled_contact
         self._strain_energy = strain_energy
         sc, mesh, V = space.scene, space.mesh, space.V
         h, g = sc.pendulum.thickness, sc.gravity
@@ -157,6 +161,9 @@ class FemOutputs:
             return np.array([self._wall.energy_and_force(u)[1], 0.0])
         if not space.contact_on:
             return np.zeros(2)
+        if self._compiled is not None:
+            p = self._head.distances(u)[0]
+            return self._compiled.resultant(p, p)
         space.gf_u.vec.FV().NumPy()[:] = u
         mesh = space.mesh
         head = mesh.Boundaries("head")
@@ -170,6 +177,8 @@ class FemOutputs:
         space = self._space
         if trapezoid or not space.contact_on:
             return 0.5 * dt * (self.contact_force_vector(u0) + self.contact_force_vector(u1))
+        if self._compiled is not None:
+            return dt * self._compiled.resultant(self._head.distances(u0)[0], self._head.distances(u1)[0])
         self._gf_u0.vec.FV().NumPy()[:] = u0
         space.gf_u.vec.FV().NumPy()[:] = u1
         mesh = space.mesh

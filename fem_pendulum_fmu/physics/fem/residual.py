@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import ngsolve as ngs
 import numpy as np
@@ -37,6 +38,9 @@ from ..scene import Material
 from ..sparse import scipy_matrix
 from . import material_points as points
 from .space import FemSpace
+
+if TYPE_CHECKING:
+    from .rigid_contact import RigidContactKernel
 
 
 class LinearTerms:
@@ -338,11 +342,23 @@ class SplitResidual:
         self.elastic, self.linear, self._contact, self._active = elastic, linear, contact, active
         self._nV = 2 * elastic.nS
         self._views: dict[int, tuple[ngs.BaseVector, np.ndarray, int]] = {}
+        self._compiled: RigidContactKernel | None = None
+
+    def use_compiled_contact(self, compiled: RigidContactKernel | None) -> None:
+        """Apply the rigid-wall contact term with this (fem/rigid_contact.py) instead of its form."""
+        self._compiled = compiled
 
     def load(self, u0: np.ndarray, v0: np.ndarray, dt: float, torque_load: float) -> None:
         """The step's inputs (the same as the full form's StepInputs)."""
         self.elastic.load(u0)
         self.linear.load(u0, v0, dt, torque_load)
+        if self._compiled is not None:
+            self._compiled.load(u0)
+
+    def contact_set(self, elements: np.ndarray) -> None:
+        """The rigid-wall contact set (head elements, local indices) as the form's BitArray now marks it."""
+        if self._compiled is not None:
+            self._compiled.activate(elements)
 
     def jacobian(self, free: np.ndarray, indptr: np.ndarray, indices: np.ndarray) -> SplitJacobian:
         """The step form's Jacobian on a pattern of the free unknowns (newton.Tangent)."""
@@ -369,8 +385,20 @@ class SplitResidual:
         form.AssembleLinearization(w)
         return form.mat
 
+    @property
+    def compiled_contact_address(self) -> int:
+        """The compiled term's struct for the fused iteration (fem/iteration.py); 0 without one."""
+        return 0 if self._compiled is None else self._compiled.address
+
+    def fused_contact(self, w: ngs.BaseVector, res: ngs.BaseVector) -> int:
+        """The contact part of a fused iteration: 2 where the kernel makes the compiled term itself, else
+        whether res now holds the form's (apply_contact)."""
+        return 2 if self._compiled is not None else int(self.apply_contact(w, res))
+
     def apply_contact(self, w: ngs.BaseVector, res: ngs.BaseVector) -> bool:
         """res = the wall contact term at w, if it can act (True), else res untouched (False)."""
+        if self._compiled is not None:
+            return self._compiled.apply(self._view(w)[0], self._view(res)[0])
         form = self._contact
         if form is None or self._active is None or self._active.NumSet() == 0:
             return False

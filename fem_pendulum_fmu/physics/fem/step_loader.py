@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import ngsolve as ngs
 import numpy as np
 
 from .head import HeadBoundary
@@ -33,8 +34,14 @@ class StepLoader:
         if form.split is not None:
             form.split.load(step.u0, step.v0, step.dt, torque_load)
         if form.active is not None and step.active is not None:  # both or neither (FemModel.load_step)
-            self._head.activate(form.active, step.active)
+            self._activate(form.active, step.active)
         form.update_wall_pairs(inputs.u0)
+
+    def _activate(self, bits: ngs.BitArray, elements: np.ndarray) -> None:
+        """The rigid-wall contact set: the form's BitArray and the split residual's compiled term."""
+        self._head.activate(bits, elements)
+        if self._form.split is not None:
+            self._form.split.contact_set(elements)
 
     def covering(self, step: StepLoad, u1: np.ndarray) -> StepLoad | None:
         """None if the rigid-wall contact set of the loaded `step` holds every head point inside the block
@@ -46,5 +53,5 @@ class StepLoader:
         wider = self._head.widened_contact_set(u1)
         if wider is None:
             return None
-        self._head.activate(bits, wider)
+        self._activate(bits, wider)
         return replace(step, active=wider)

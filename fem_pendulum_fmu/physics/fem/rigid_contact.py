@@ -1,0 +1,98 @@
+"""The rigid wall's contact term of the step residual in the compiled kernel (femp_rigid_contact,
+fem/rigid_contact_kernel.c), in place of its NGSolve form's `Apply`.
+
+In an impact every Newton iteration applied that form: on the steel scene's mesh
+about 20 us a call, an eighth of an impact's time once the rest of the iteration
+was compiled (docs/fem.md, "Each change and what it bought"). The term is a sum
+over the head boundary's Gauss points of the form's own rule (fe_boundary.head_points):
+the discrete-gradient force of contact_law.py from the step's start position to
+the iterate's, times the test functions there (fem/head.py's trace matrix), the
+point's ds weight and the thickness. The kernel makes it on the points of the
+contact set's elements only. The form stays the source of the contact Jacobian.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import ngsolve as ngs
+import numpy as np
+from ngsolve import specialcf
+
+from .. import native
+from .head import HeadBoundary
+from .space import FemSpace
+
+
+def compiled_contact(space: FemSpace, head: HeadBoundary) -> RigidContactKernel | None:
+    """The compiled term for a rigid wall with contact on, where the kernels are built; else None."""
+    lib = native.kernels()
+    return RigidContactKernel(lib, space, head) if lib is not None and space.contact_on else None
+
+
+def ds_weights(space: FemSpace, head: HeadBoundary) -> np.ndarray:
+    """Each head point's weight in the form's boundary integral: its rule weight times the length of the
+    element map's tangent there (the curved elements' arc length per reference length)."""
+    tangent = np.asarray(specialcf.JacobianMatrix(2, 1)(head.points)).reshape(len(head.weights), 2)
+    rule = np.array([ip.weight for ip in ngs.IntegrationRule(ngs.SEGM, space.contact_order)])
+    return np.tile(rule, len(head.elements)) * np.hypot(tangent[:, 0], tangent[:, 1])
+
+
+class _Contact(ctypes.Structure):
+    """struct femp_rigid_contact of fem/rigid_contact_kernel.c, field for field."""
+
+    _fields_ = [("n", ctypes.c_int), ("points", ctypes.c_void_p), ("P", ctypes.c_int), ("indptr", ctypes.c_void_p)]
+    _fields_ += [(name, ctypes.c_void_p) for name in ("indices", "data", "X", "p0", "weights", "block")]
+    _fields_ += [("k", ctypes.c_double)]
+
+
+class RigidContactKernel:
+    """apply(w, res): res = the rigid-wall contact term at w on the loaded contact set (False, res untouched,
+    while the set is empty); load(u0) and activate(elements) follow the step's inputs. `address` is its
+    struct's, for the fused iteration (fem/iteration.py), which makes the term in the same call."""
+
+    def __init__(self, lib: ctypes.CDLL, space: FemSpace, head: HeadBoundary):
+        self._lib, self._head = lib, head
+        trace = head.trace
+        indptr = np.ascontiguousarray(trace.indptr, dtype=np.int32)
+        indices = np.ascontiguousarray(trace.indices, dtype=np.int32)
+        data = np.ascontiguousarray(trace.data, dtype=float)
+        self._X = np.ascontiguousarray(head.X.T.ravel())  # x coordinates, then y
+        self._p0 = self._X.copy()
+        self._u0 = np.zeros(head.trace.shape[1])
+        weights = space.scene.pendulum.thickness * ds_weights(space, head)
+        b = space.scene.block
+        block = np.array([b.x_min, b.x_max, b.y_min, b.y_max])
+        self._points: np.ndarray = np.zeros(0, dtype=np.int32)
+        self._per_element = len(weights) // len(head.elements)  # the points of local element e: nq e + 0..nq-1
+        self._keep = (indptr, indices, data, weights, block)  # the arrays the struct points to
+        c = self._c = _Contact(0, self._points.ctypes.data, len(weights), indptr.ctypes.data, indices.ctypes.data)
+        c.data, c.X, c.p0, c.weights = data.ctypes.data, self._X.ctypes.data, self._p0.ctypes.data, weights.ctypes.data
+        c.block, c.k = block.ctypes.data, space.scene.contact.stiffness
+        self.address = ctypes.addressof(c)
+
+    def load(self, u0: np.ndarray) -> None:
+        """The step's start displacement: its positions at the points are made once a point is listed."""
+        self._u0 = u0
+
+    def activate(self, elements: np.ndarray) -> None:
+        """The contact set: these head elements (local indices), as HeadBoundary.activate marks them. Free
+        flight, an empty set, costs neither the points' list nor their start positions."""
+        if len(elements) == 0 and self._c.n == 0:
+            return
+        nq = self._per_element
+        self._points = (np.asarray(elements, dtype=np.int32)[:, None] * nq + np.arange(nq, dtype=np.int32)).ravel()
+        self._c.n, self._c.points = len(self._points), self._points.ctypes.data
+        if len(self._points):
+            self._p0[:] = self._X + self._head.trace @ self._u0
+
+    def apply(self, w: np.ndarray, res: np.ndarray) -> bool:
+        """res = the term at w (float64 arrays over the solver's unknowns, displacements first)."""
+        return bool(self._lib.femp_rigid_contact(self.address, w.ctypes.data, len(res), res.ctypes.data))
+
+    def resultant(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+        """The force of the wall on the pendulum that the term applies from the points' positions p0 to p1
+        ((P, 2) arrays, C order) over all points; p0 = p1: the penalty force at them (N, vector)."""
+        out, a, b = np.empty(2), np.ascontiguousarray(p0, dtype=float), np.ascontiguousarray(p1, dtype=float)
+        self._lib.femp_rigid_contact_resultant(self.address, a.ctypes.data, b.ctypes.data, out.ctypes.data)
+        return out
