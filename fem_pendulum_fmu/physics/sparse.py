@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.sparse as sp
 
+from . import native
+
 if TYPE_CHECKING:
     from ngsolve.la import BaseMatrix
 
@@ -17,3 +19,24 @@ def scipy_matrix(mat: BaseMatrix) -> sp.csr_matrix:
     csr = sp.csr_matrix((np.array(vals), (np.array(rows), np.array(cols))), shape=(mat.height, mat.width))
     csr.indptr, csr.indices = csr.indptr.astype(np.int32), csr.indices.astype(np.int32)
     return csr
+
+
+class MatVec:
+    """A x for a CSR matrix with int32 indices: the compiled kernel's row loop (scipy's sums in scipy's order,
+    so the same bits) without scipy's dispatch, which cost about 10 us a product, several per step; scipy's
+    product where the kernel is not built."""
+
+    def __init__(self, mat: sp.csr_matrix):
+        self._mat, self._lib = mat, native.kernels()
+        if mat.indptr.dtype != np.int32 or mat.indices.dtype != np.int32 or mat.data.dtype != np.float64:
+            raise ValueError("MatVec needs int32 indices and float64 entries (scipy_matrix)")
+        self._args = (mat.shape[0], mat.indptr.ctypes.data, mat.indices.ctypes.data, mat.data.ctypes.data)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        """A x, a new array."""
+        if self._lib is None:
+            return np.asarray(self._mat @ x)
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        out = np.zeros(self._args[0])
+        self._lib.femp_csr_axpy(*self._args, 1.0, x.ctypes.data, out.ctypes.data)
+        return out

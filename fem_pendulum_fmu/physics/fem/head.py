@@ -18,6 +18,7 @@ import scipy.sparse
 from ..box import box_signed_distance
 from ..contact_time import ClosestPoint
 from ..fe_boundary import head_points
+from ..sparse import MatVec
 from .space import FemSpace, FemState
 from .wall import WALL_SEARCH_DISTANCE, WallFace
 
@@ -39,7 +40,9 @@ def trace_matrix(space: FemSpace, points: ngs.comp.MeshPoints, elements: np.ndar
         columns.append(np.asarray(gf(points)).T.ravel())
     dense = np.array(columns).T
     rows, cols = np.nonzero(dense)
-    return scipy.sparse.csr_matrix((dense[rows, cols], (rows, np.array(dofs)[cols])), shape=(dense.shape[0], space.nV))
+    csr = scipy.sparse.csr_matrix((dense[rows, cols], (rows, np.array(dofs)[cols])), shape=(dense.shape[0], space.nV))
+    csr.indptr, csr.indices = csr.indptr.astype(np.int32), csr.indices.astype(np.int32)
+    return csr
 
 
 class HeadBoundary:
@@ -58,6 +61,7 @@ class HeadBoundary:
             None  # (state, closest point) of the last state asked about
         )
         self._trace = trace_matrix(space, head.points, head.elements)
+        self._trace_of = MatVec(self._trace)
         self._face = WallFace(space) if space.deformable_wall else None
         # (u, positions, signed distances to the undeformed block, normals) of the last two u asked about
         self._distances: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
@@ -72,7 +76,7 @@ class HeadBoundary:
 
     def values(self, w: np.ndarray) -> np.ndarray:
         """A displacement (or velocity) field's values at the points, (P, 2)."""
-        return (self._trace @ w).reshape(2, -1).T
+        return self._trace_of(w).reshape(2, -1).T
 
     def distances(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Positions of the points at displacement u, their signed distances to the undeformed block and

@@ -17,7 +17,7 @@ from ngsolve import BND, VOL, BilinearForm, Cof, Grad, Id, InnerProduct, Integra
 from .. import material
 from ..fields import VertexSampler, body_field
 from ..protocol import BodyField, Outputs
-from ..sparse import scipy_matrix
+from ..sparse import MatVec, scipy_matrix
 from . import contact_law
 from .head import HeadBoundary
 from .rigid_contact import RigidContactKernel
@@ -60,6 +60,7 @@ class FemOutputs:
         dxp = ngs.dx("pendulum")
         self.mass_p = scipy_matrix(BilinearForm(rho * h * InnerProduct(uu, vv) * dxp).Assemble().mat)
         self.cross = scipy_matrix(BilinearForm(rho * h * (uu[0] * vv[1] - uu[1] * vv[0]) * dxp).Assemble().mat)
+        self._mass_of, self._mass_p_of, self._cross_of = MatVec(self.mass), MatVec(self.mass_p), MatVec(self.cross)
         self.l_pos = LinearForm(rho * h * InnerProduct(space.pos, vv) * dxp).Assemble().vec.FV().NumPy().copy()
         self.l_rot = LinearForm(rho * h * (x * vv[1] - y * vv[0]) * dxp).Assemble().vec.FV().NumPy().copy()
         self.pot0 = sum(Integrate(mat.rho * h * g * y, mesh, definedon=mesh.Materials(r)) for r, mat in space.bodies)
@@ -124,8 +125,8 @@ class FemOutputs:
     def _rotation(self, u: np.ndarray, v: np.ndarray) -> tuple[float, float]:
         """Best-fit rigid rotation of the displacement, and angular velocity about the pivot."""
         theta = self.rotation_angle(u)
-        Cv = self.cross @ v
-        Mu = self.mass_p @ u
+        Cv = self._cross_of(v)
+        Mu = self._mass_p_of(u)
         ang_mom = float(self.l_rot @ v) - float(u @ Cv)  # u @ (cross v) = -int rho h (u x v): rows are test functions
         inertia = self.inertia0 + 2.0 * float(self.l_pos @ u) + float(u @ Mu)
         return theta, ang_mom / inertia
@@ -208,7 +209,7 @@ class FemOutputs:
         mesh, u, v = space.mesh, s.u, s.v
         space.gf_u.vec.FV().NumPy()[:] = u
         space.gf_v.vec.FV().NumPy()[:] = v
-        kinetic = 0.5 * float(v @ (self.mass @ v))
+        kinetic = 0.5 * float(v @ self._mass_of(v))
         potential = self.pot0 + float(self.l_pot @ u)
         theta, omega = (0.0, 0.0) if light else self._rotation(u, v)
         # the forms' own rule (2 order): the scheme conserves the strain energy integrated so; a finer
