@@ -15,7 +15,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse
 
-from ..box import box_signed_distance
+from ..box import Box, box_signed_distance
 from ..contact_time import ClosestPoint
 from ..fe_boundary import head_points
 from ..sparse import MatVec
@@ -63,8 +63,9 @@ class HeadBoundary:
         self._trace = trace_matrix(space, head.points, head.elements)
         self._trace_of = MatVec(self._trace)
         self._face = WallFace(space) if space.deformable_wall else None
-        # (u, positions, signed distances to the undeformed block, normals) of the last two u asked about
-        self._distances: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+        self._box = Box.of(space.scene.block)
+        # (u, positions, signed distances to the undeformed block) of the last two u asked about
+        self._distances: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
 
     @property
     def trace(self) -> scipy.sparse.csr_matrix:
@@ -78,16 +79,17 @@ class HeadBoundary:
         """A displacement (or velocity) field's values at the points, (P, 2)."""
         return self._trace_of(w).reshape(2, -1).T
 
-    def distances(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Positions of the points at displacement u, their signed distances to the undeformed block and
-        its normals there. The arrays of a state are never changed in place, so u is known by identity."""
+    def distances(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Positions of the points at displacement u and their signed distances to the undeformed block
+        (the block's normal only where it is asked for, at the closest point: at every point it cost
+        twice the distances). The arrays of a state are never changed in place, so u is known by identity."""
         for known in self._distances:
             if known[0] is u:
-                return known[1:]
+                return known[1], known[2]
         p = self.positions(u)
-        dist, nx, ny = box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
-        self._distances = [(u, p, dist, nx, ny), *self._distances[:1]]
-        return p, dist, nx, ny
+        dist = self._box.distances(p[:, 0], p[:, 1])
+        self._distances = [(u, p, dist), *self._distances[:1]]
+        return p, dist
 
     def reachable(self, xs: FemState, dt: float) -> np.ndarray:
         """Head elements (local indices) whose points could reach the block during a step of dt from xs."""
@@ -123,12 +125,15 @@ class HeadBoundary:
         if self._face is not None:
             p = self.positions(xs.u)
             p = p - self._face.shift(p, xs.u, self._space.scene.block)
-            dist, nx, ny = box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
+            dist, nxs, nys = box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
+            i = int(np.argmin(dist))
+            nx, ny = float(nxs[i]), float(nys[i])
         else:
-            p, dist, nx, ny = self.distances(xs.u)
-        i = int(np.argmin(dist))
+            p, dist = self.distances(xs.u)
+            i = int(np.argmin(dist))
+            nx, ny = self._box.normal(float(p[i, 0]), float(p[i, 1]))
         vel = self.values(xs.v)[i]
-        result = ClosestPoint(p, dist, i, (float(nx[i]), float(ny[i])), float(nx[i] * vel[0] + ny[i] * vel[1]))
+        result = ClosestPoint(p, dist, i, (nx, ny), float(nx * vel[0] + ny * vel[1]))
         self._closest = (xs, result)
         return result
 
