@@ -179,6 +179,8 @@ class HeldJacobianNewton:
         self.counts = NewtonCounts()
         self.held: JacobianPoint | None = None
         self.ready = False  # the held Jacobian is assembled and factorised (False after a restore)
+        self._held_at: JacobianPoint | None = None  # the held point whose angle _held_turn is
+        self._held_turn = 0.0
 
     @property
     def by_superlu(self) -> int:
@@ -187,7 +189,7 @@ class HeldJacobianNewton:
 
     def multipliers(self) -> np.ndarray:
         """The hinge multipliers of the last solve."""
-        return self.w.vec.FV().NumPy()[self._nV :].copy()
+        return self._w_np[self._nV :].copy()
 
     def residual(self, u: np.ndarray, multipliers: float | np.ndarray) -> ngs.BaseVector:
         """The step form's residual at (u, hinge multipliers) with the inputs as loaded (a vector of the solver's)."""
@@ -204,14 +206,15 @@ class HeldJacobianNewton:
         wv[:nV] = guess
         wv[nV:] = multipliers
         res = self._res
-        scale = max(float(np.max(np.abs(dt * step.v0))), 1e-12)
+        # dt max|v0|: the same bits as max|dt v0| (rounding is monotone), without two arrays of nV
+        scale = max(dt * float(np.max(np.abs(step.v0))), 1e-12)
         if self.held is not None and not self.ready:
             self._rebuild_held(self.held, step)
         refresh = self.held is None
         if self.held is not None and abs(self.held.serves - dt) > HELD_DT_CHANGE * dt:
             refresh = not self._rescale(dt)
         # the pendulum's rotation since the start of the step the held Jacobian was assembled in
-        turn = 0.0 if self.held is None else self._turn.angle(step.u0) - self._turn.angle(self.held.load.u0)
+        turn = 0.0 if self.held is None else self._turn.angle(step.u0) - self._held_angle(self.held)
         last, tol, refreshes = math.inf, NEWTON_RTOL * scale + 1e-15, 0
         for it in range(NEWTON_MAX_IT):
             if refresh:
@@ -234,6 +237,12 @@ class HeldJacobianNewton:
             refresh = too_slow(size, last, tol, NEWTON_MAX_IT - it - 1)
             last = size
         return None
+
+    def _held_angle(self, held: JacobianPoint) -> float:
+        """The pendulum's angle at the start of the held Jacobian's step, computed once per held point."""
+        if self._held_at is not held:
+            self._held_at, self._held_turn = held, self._turn.angle(held.load.u0)
+        return self._held_turn
 
     def _update(self, turn: float) -> float:
         """w -= the Newton correction for the residual in self._res; its largest displacement entry
