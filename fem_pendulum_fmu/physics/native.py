@@ -62,7 +62,10 @@ SIGNATURES = {
     "femp_reduced_step": (_P, _P, _P, _D, _D, _D, _P, _P, _P),
 }
 RESULTS = {
-    **{name: ctypes.c_double for name in ("femp_update", "femp_min_det", "femp_strain_energy", "femp_lu_factor")},
+    **{
+        name: ctypes.c_double
+        for name in ("femp_update", "femp_min_det", "femp_deformation", "femp_strain_energy", "femp_lu_factor")
+    },
     "femp_iterate": ctypes.c_double,
     "femp_rigid_contact": ctypes.c_int,
     **{name: ctypes.c_double for name in ("femp_reduced_strain_energy", "femp_reduced_gap")},

@@ -25,12 +25,15 @@ static void gradients_at(int p, int q, const int *indptr, const int *indices, co
 }
 
 /* F (4 per point: 00 01 10 11) and C = F^T F (3 per point: 00 01 11) of the displacement u */
-void femp_deformation(int q, const int *indptr, const int *indices, const double *data, int nS, const double *u,
-                      double *F, double *C) {
+double femp_deformation(int q, const int *indptr, const int *indices, const double *data, int nS, const double *u,
+                        double *F, double *C) {
+    double smallest = INFINITY; /* det F, as femp_min_det counts it */
     for (int p = 0; p < q; ++p) {
         double g[4];
         gradients_at(p, q, indptr, indices, data, nS, u, g);
         double f00 = 1.0 + g[0], f01 = g[1], f10 = g[2], f11 = 1.0 + g[3];
+        double det = f00 * f11 - f01 * f10;
+        if (det < smallest) smallest = det;
         F[4 * p] = f00;
         F[4 * p + 1] = f01;
         F[4 * p + 2] = f10;
@@ -39,6 +42,7 @@ void femp_deformation(int q, const int *indptr, const int *indices, const double
         C[3 * p + 1] = f00 * f01 + f10 * f11;
         C[3 * p + 2] = f01 * f01 + f11 * f11;
     }
+    return smallest;
 }
 
 /* out[0:2 nS] += G^T (weights P(F0, F1(u))), the stress term's residual at the end displacement u */

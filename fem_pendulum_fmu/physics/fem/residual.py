@@ -195,6 +195,8 @@ class _Body:
     indices: np.ndarray
     F0: np.ndarray  # (Q, 4) and (Q, 3): F and C of the step's start, set by load
     C0: np.ndarray
+    F1: np.ndarray  # the same of the last displacement min_det_F checked: the next step's start, once accepted
+    C1: np.ndarray
 
     def kernel_args(self, nS: int) -> tuple[tuple, tuple]:
         """The kernel's arguments before u and between u and out (addresses of arrays that stay put)."""
@@ -226,10 +228,13 @@ class ElasticTerms:
                     rule.grad.indices.astype(np.int32),
                     np.zeros((q, 4)),
                     np.zeros((q, 3)),
+                    np.zeros((q, 4)),
+                    np.zeros((q, 3)),
                 )
             )
         self.nS = space.nV // 2
         self._args = [b.kernel_args(self.nS) for b in self._bodies]
+        self._checked: np.ndarray | None = None  # the displacement whose F and C the bodies' F1 and C1 hold
 
     def _deformation_gradient(self, rule: VolumeRule, u: np.ndarray) -> np.ndarray:
         """F at the rule's points as (4, Q) (numpy form)."""
@@ -239,13 +244,17 @@ class ElasticTerms:
         return np.stack((1.0 + gx[:, 0], gy[:, 0], gx[:, 1], 1.0 + gy[:, 1]))
 
     def load(self, u0: np.ndarray) -> None:
-        """The step's start displacement: its F and C, once per step."""
+        """The step's start displacement: its F and C, once per step (copied where min_det_F made them: a
+        step starts where the last accepted one ended, checked there)."""
+        if u0 is self._checked:
+            for b in self._bodies:
+                np.copyto(b.F0, b.F1)
+                np.copyto(b.C0, b.C1)
+            return
         u0 = np.ascontiguousarray(u0, dtype=float)
-        for b in self._bodies:
+        for (head, _), b in zip(self._args, self._bodies, strict=True):
             if self._lib is not None:
-                g = b.rule.grad
-                args = (len(b.rule.weights), b.indptr.ctypes.data, b.indices.ctypes.data, g.data.ctypes.data)
-                self._lib.femp_deformation(*args, self.nS, u0.ctypes.data, b.F0.ctypes.data, b.C0.ctypes.data)
+                self._lib.femp_deformation(*head, u0.ctypes.data, b.F0.ctypes.data, b.C0.ctypes.data)
             else:
                 F0 = self._deformation_gradient(b.rule, u0)
                 b.F0[:] = F0.T
@@ -297,12 +306,19 @@ class ElasticTerms:
     def min_det_F(self, u: np.ndarray) -> float:
         """The smallest det F of the displacement u at the rule's points of every body."""
         if self._lib is not None:
-            u = np.ascontiguousarray(u, dtype=float)
-            return min(self._lib.femp_min_det(*head, u.ctypes.data) for head, _ in self._args)
+            return self._deformation_min_det(u)
         dets = []
         for b in self._bodies:
             f00, f01, f10, f11 = self._deformation_gradient(b.rule, u)
             dets.append(float(np.min(f00 * f11 - f01 * f10)))
+        return min(dets)
+
+    def _deformation_min_det(self, u: np.ndarray) -> float:
+        """femp_min_det's result by femp_deformation, which keeps u's F and C for load (u known by identity)."""
+        assert self._lib is not None
+        at, bodies = np.ascontiguousarray(u, dtype=float).ctypes.data, zip(self._args, self._bodies, strict=True)
+        dets = [self._lib.femp_deformation(*head, at, b.F1.ctypes.data, b.C1.ctypes.data) for (head, _), b in bodies]
+        self._checked = u
         return min(dets)
 
     def strain_energy(self, u: np.ndarray) -> float:
