@@ -56,7 +56,8 @@ class HeadBoundary:
         self.weights = head.weights
         self.elements = head.elements
         self.point_element = np.repeat(np.arange(len(head.elements)), len(head.rule))
-        self.active_local: set[int] = set()  # head elements (local indices) with contact assembled
+        self.active_local = np.zeros(0, dtype=int)  # head elements (local indices) with contact assembled
+        self._is_active = np.zeros(len(head.elements), dtype=bool)  # the same as a mask
         self._closest: tuple[FemState, ClosestPoint] | None = (
             None  # (state, closest point) of the last state asked about
         )
@@ -100,20 +101,22 @@ class HeadBoundary:
 
     def activate(self, bits: ngs.BitArray, elements: np.ndarray) -> None:
         """Assemble contact on exactly these head elements (bits: the step form's BitArray)."""
+        if np.array_equal(elements, self.active_local):
+            return  # the bits as they are (a step in contact mostly keeps the set of the step before)
         bits.Clear()
         for e in self.elements[elements]:
             bits.Set(int(e))
-        self.active_local = set(int(i) for i in elements)
+        self.active_local = np.array(elements, dtype=int)
+        self._is_active[:] = False
+        self._is_active[self.active_local] = True
 
     def widened_contact_set(self, u1: np.ndarray) -> np.ndarray | None:
         """None if every head point inside the block at the step's end u1 is on the active set; else the
         set widened to their elements (fem/step_loader.py activates it)."""
-        dist = self.distances(u1)[1]
-        touching = set(int(i) for i in np.unique(self.point_element[dist < 0.0]))
-        missing = touching - self.active_local
-        if not missing:
+        touching = self.point_element[self.distances(u1)[1] < 0.0]
+        if self._is_active[touching].all():
             return None
-        return np.array(sorted(self.active_local | missing), dtype=int)
+        return np.union1d(self.active_local, touching)
 
     def closest_point(self, xs: FemState) -> ClosestPoint:
         """The head point closest to the (deformed) wall and its rate.

@@ -83,8 +83,8 @@ class RigidContactKernel:
         nq = self._per_element
         self._points = (np.asarray(elements, dtype=np.int32)[:, None] * nq + np.arange(nq, dtype=np.int32)).ravel()
         self._c.n, self._c.points = len(self._points), self._points.ctypes.data
-        if len(self._points):
-            self._p0[:] = self._X + self._head.trace @ self._u0
+        if len(self._points):  # X + trace u0 as the head's positions at u0 hold it (made for the contact set)
+            self._p0.reshape(2, -1)[:] = self._head.distances(self._u0)[0].T
 
     def apply(self, w: np.ndarray, res: np.ndarray) -> bool:
         """res = the term at w (float64 arrays over the solver's unknowns, displacements first)."""
