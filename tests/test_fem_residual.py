@@ -180,8 +180,9 @@ def test_fused_iteration_equals_the_separate_calls(case: str) -> None:
         nw._apply(w, nw._res)
         separate.append((nw._update(turn), nw._w_np.copy()))
     nw._w_np[:] = start
+    nw._fused.prepare(turn)
     for size, iterate in separate:
-        assert nw._fused.iterate(nw._split.apply_contact(w, nw._res), turn) == size
+        assert nw._fused.iterate(nw._split.apply_contact(w, nw._res)) == size
         assert np.array_equal(nw._w_np, iterate)
 
 

@@ -47,7 +47,7 @@ class _Iteration(ctypes.Structure):
 
 
 class FusedIteration:
-    """iterate(contact, turn): one Newton iteration on the solver's vectors, as HeldJacobianNewton's
+    """iterate(contact): one Newton iteration (prepare(turn) first) on the solver's vectors, as HeldJacobianNewton's
     residual and update would make it; returns the correction's largest displacement entry (-1 if not
     finite). The split residual's arrays and the vectors must stay where they are (they do: all are
     allocated once)."""
@@ -78,13 +78,20 @@ class FusedIteration:
         it.contact = split.compiled_contact_address  # the rigid-wall term made in the call (0: none)
         self._ref = ctypes.byref(it)
         self._factor_args: tuple = ()
+        self._turn = (0, 1.0, 0.0)  # femp_iterate's turn, cos, sin
 
-    def iterate(self, contact: int, turn: float) -> float:
-        """contact: 1 if the residual vector holds the contact term, 0 if none acts, 2 to make the compiled
-        rigid-wall term in the call (SplitResidual.fused_contact)."""
+    def prepare(self, turn: float) -> None:
+        """What stays over a solve's iterations until its Jacobian changes: the factors, the loaded step's
+        coefficients, the turn (rad) of the held Jacobian. Before a solve's first iteration and after
+        each new Jacobian (about 3 us an iteration that were spent again at every call)."""
         it, factor = self._it, self._factor
         if factor.kernel_args is not self._factor_args:  # factors in new arrays (a new pattern, or SuperLU's)
             self._factor_args = factor.kernel_args
             it.lu = _Factors(*factor.kernel_args, factor.work_at)
         it.inertia, it.half_torque = self._split.linear.coefficients
-        return float(self._lib.femp_iterate(self._ref, contact, turn != 0.0, math.cos(turn), math.sin(turn)))
+        self._turn = (turn != 0.0, math.cos(turn), math.sin(turn))
+
+    def iterate(self, contact: int) -> float:
+        """contact: 1 if the residual vector holds the contact term, 0 if none acts, 2 to make the compiled
+        rigid-wall term in the call (SplitResidual.fused_contact)."""
+        return float(self._lib.femp_iterate(self._ref, contact, *self._turn))

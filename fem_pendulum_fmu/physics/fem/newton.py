@@ -216,6 +216,9 @@ class HeldJacobianNewton:
         # the pendulum's rotation since the start of the step the held Jacobian was assembled in
         turn = 0.0 if self.held is None else self._turn.angle(step.u0) - self._held_angle(self.held)
         last, tol, refreshes = math.inf, NEWTON_RTOL * scale + 1e-15, 0
+        fused, split = self._fused, self._split
+        if fused is not None:
+            fused.prepare(turn)
         for it in range(NEWTON_MAX_IT):
             if refresh:
                 if refreshes == MAX_REFRESHES:
@@ -224,8 +227,10 @@ class HeldJacobianNewton:
                 self._refresh(step)
                 refresh = False
                 turn = 0.0
-            if self._fused is not None and self._split is not None:
-                size = self._fused.iterate(self._split.fused_contact(self.w.vec, res), turn)
+                if fused is not None:
+                    fused.prepare(turn)
+            if fused is not None and split is not None:
+                size = fused.iterate(split.fused_contact(self.w.vec, res))
             else:
                 self._apply(self.w.vec, res)
                 size = self._update(turn)
