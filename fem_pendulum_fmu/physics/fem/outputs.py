@@ -140,6 +140,7 @@ class FemOutputs:
             return 0.0, c_force  # no rule point in the block: the integrals are exactly zero
         mesh, order = space.mesh, space.contact_order
         head = mesh.Boundaries("head")
+        space.gf_u.vec.FV().NumPy()[:] = s.u  # the integrands' field (of() sets it only where it is read)
         c_energy = float(Integrate(self._contact_energy_cf, mesh, BND, order=order, definedon=head))
         if not light:
             fvec = Integrate(self._contact_force_cf, mesh, BND, order=order, definedon=head)
@@ -207,8 +208,6 @@ class FemOutputs:
         """All outputs of a state; light: the energies only (for the energy guard)."""
         space = self._space
         mesh, u, v = space.mesh, s.u, s.v
-        space.gf_u.vec.FV().NumPy()[:] = u
-        space.gf_v.vec.FV().NumPy()[:] = v
         kinetic = 0.5 * float(v @ self._mass_of(v))
         potential = self.pot0 + float(self.l_pot @ u)
         theta, omega = (0.0, 0.0) if light else self._rotation(u, v)
@@ -217,6 +216,7 @@ class FemOutputs:
         if self._strain_energy is not None:
             strain = self._strain_energy(u)
         else:
+            space.gf_u.vec.FV().NumPy()[:] = u  # the integrands' field
             strain = sum(
                 float(Integrate(cf, mesh, order=2 * space.scene.model.order, definedon=mesh.Materials(region)))
                 for region, cf in self._strain_cf
