@@ -178,11 +178,9 @@ class FemModel:
         return None
 
     def _energy_of(self, s: FemState) -> tuple[float, float]:
-        """(total energy, kinetic + strain + contact energy) of a state, counted as the outputs count them; cached."""
-        if s.energy is None:
-            out = self.measures.of(s, 0.0, 0, light=True)
-            s.energy = (out.total, out.kinetic + out.strain + out.contact)
-        return s.energy
+        """(total energy, kinetic + strain + contact energy) of a state, counted as the outputs count them."""
+        kinetic, potential, strain, contact = self.measures.energies(s)
+        return kinetic + potential + strain + contact, kinetic + strain + contact
 
     def min_det_F(self, u: np.ndarray | None = None) -> float:
         """Smallest det F at the integration points of every element (of the current state by default)."""

@@ -131,8 +131,9 @@ class FemOutputs:
         inertia = self.inertia0 + 2.0 * float(self.l_pos @ u) + float(u @ Mu)
         return theta, ang_mom / inertia
 
-    def _contact(self, s: FemState, light: bool) -> tuple[float, float]:
-        """(contact energy, contact force); light: the energy only (force 0) for the rigid wall."""
+    def _contact(self, s: FemState, light: bool, energy: bool = True) -> tuple[float, float]:
+        """(contact energy, contact force); light: the energy only (force 0) for the rigid wall; not energy:
+        the force only (energy 0) for the rigid wall."""
         space, c_force = self._space, 0.0
         if self._wall is not None:
             return self._wall_contact(s)
@@ -141,7 +142,7 @@ class FemOutputs:
         mesh, order = space.mesh, space.contact_order
         head = mesh.Boundaries("head")
         space.gf_u.vec.FV().NumPy()[:] = s.u  # the integrands' field (of() sets it only where it is read)
-        c_energy = float(Integrate(self._contact_energy_cf, mesh, BND, order=order, definedon=head))
+        c_energy = float(Integrate(self._contact_energy_cf, mesh, BND, order=order, definedon=head)) if energy else 0.0
         if not light:
             fvec = Integrate(self._contact_force_cf, mesh, BND, order=order, definedon=head)
             c_force = float(math.hypot(fvec[0], fvec[1]))
@@ -204,24 +205,42 @@ class FemOutputs:
             for sampler, vm in self._samplers
         ]
 
+    def energies(self, s: FemState) -> tuple[float, float, float, float]:
+        """(kinetic, potential, strain, contact) energy of a state, kept on it: the energy guard asks for a
+        step's end, the advance's outputs then for the same state."""
+        if s.energies is None:
+            self.of(s, 0.0, 0, light=True)
+        assert s.energies is not None
+        return s.energies
+
+    def _strain(self, u: np.ndarray) -> float:
+        """The forms' own rule (2 order): the scheme conserves the strain energy integrated so; a finer
+        rule differed by up to 3 % of the work in the crushed rubber hinge (docs/robustness.md)."""
+        if self._strain_energy is not None:
+            return self._strain_energy(u)
+        space, mesh = self._space, self._space.mesh
+        space.gf_u.vec.FV().NumPy()[:] = u  # the integrands' field
+        return sum(
+            float(Integrate(cf, mesh, order=2 * space.scene.model.order, definedon=mesh.Materials(region)))
+            for region, cf in self._strain_cf
+        )
+
     def of(self, s: FemState, t: float, substeps: int, light: bool = False) -> Outputs:
-        """All outputs of a state; light: the energies only (for the energy guard)."""
+        """All outputs of a state; light: the energies only (for the energy guard). The energies are kept on
+        the state (`energies`) and taken from it when it has them."""
         space = self._space
         mesh, u, v = space.mesh, s.u, s.v
-        kinetic = 0.5 * float(v @ self._mass_of(v))
-        potential = self.pot0 + float(self.l_pot @ u)
-        theta, omega = (0.0, 0.0) if light else self._rotation(u, v)
-        # the forms' own rule (2 order): the scheme conserves the strain energy integrated so; a finer
-        # rule differed by up to 3 % of the work in the crushed rubber hinge (docs/robustness.md)
-        if self._strain_energy is not None:
-            strain = self._strain_energy(u)
+        c_force = 0.0
+        if s.energies is None:
+            kinetic = 0.5 * float(v @ self._mass_of(v))
+            potential = self.pot0 + float(self.l_pot @ u)
+            strain = self._strain(u)
+            c_energy, c_force = self._contact(s, light)
+            s.energies = (kinetic, potential, strain, c_energy)
         else:
-            space.gf_u.vec.FV().NumPy()[:] = u  # the integrands' field
-            strain = sum(
-                float(Integrate(cf, mesh, order=2 * space.scene.model.order, definedon=mesh.Materials(region)))
-                for region, cf in self._strain_cf
-            )
-        c_energy, c_force = self._contact(s, light)
+            kinetic, potential, strain, c_energy = s.energies
+            c_force = 0.0 if light else self._contact(s, False, energy=False)[1]
+        theta, omega = (0.0, 0.0) if light else self._rotation(u, v)
         gap = self._head.closest_point(s).gap if not light else 0.0
         vm = 0.0
         if space.scene.model.compute_stress and not light:

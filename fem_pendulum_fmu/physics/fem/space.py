@@ -33,7 +33,7 @@ class FemState:
     torque_work: float
     a: np.ndarray | None = None  # acceleration, carried by the Newmark schemes only
     drift: np.ndarray | None = None  # the mean velocity (u1 - u0) / dt of the energy-momentum step that led here
-    energy: tuple[float, float] | None = None  # (total, in motion), computed when the energy guard asks
+    energies: tuple[float, float, float, float] | None = None  # kinetic, potential, strain, contact (FemOutputs)
 
     def to_model_state(self, time: float, outputs: Outputs, held_jacobian: JacobianPoint | None) -> ModelState:
         """The model's state at this instant: its arrays (copies), the held Jacobian's point, and the
