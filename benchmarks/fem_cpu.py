@@ -1,11 +1,12 @@
 """CPU time per simulated second of the default fem fidelity on the steel scene, 1 ms communication steps.
 
     python benchmarks/fem_cpu.py [--t-end 1.0] [--repeat 3] [--preset stiff|compliant] [--deformable-wall]
-                                 [--profile N [--impacts]]
+                                 [--mesh-size H] [--profile N [--impacts]]
 
 The steel scene (stiff(): rigid wall, released at 20 degrees, no torque; or the
 rubber one, compliant(), order 3; --deformable-wall: the seed's meshed wall
-block instead of the rigid one) on the default mesh, advanced in 1 ms communication steps as an FMU master drives it
+block instead of the rigid one) on the default mesh (or that of --mesh-size, model.mesh_size),
+advanced in 1 ms communication steps as an FMU master drives it
 (outputs computed at every step), timed with time.process_time (CPU time of
 this process, less disturbed than wall time by other jobs on a shared
 machine); prints the best of `repeat` runs, the wall time of that run, the
@@ -40,9 +41,9 @@ from fem_pendulum_fmu.physics.mass_properties import swing_energy
 from fem_pendulum_fmu.physics.scene import PRESETS
 
 
-def run(t_end: float, preset: str, deformable_wall: bool = False) -> dict[str, float]:
+def run(t_end: float, preset: str, values: dict[str, object] | None = None) -> dict[str, float]:
     """One timed run from a fresh model (set-up not timed)."""
-    model = FemModel(PRESETS[preset](**({"wall.kind": "deformable"} if deformable_wall else {})))
+    model = FemModel(PRESETS[preset](**(values or {})))
     e0 = model.outputs().total
     swing = swing_energy(model.scene)
     steps = round(t_end / 1e-3)
@@ -71,9 +72,9 @@ def run(t_end: float, preset: str, deformable_wall: bool = False) -> dict[str, f
     }
 
 
-def profile_impacts(t_end: float, preset: str, deformable_wall: bool, entries: int) -> None:
+def profile_impacts(t_end: float, preset: str, values: dict[str, object], entries: int) -> None:
     """Profile the doSteps of more than two internal steps (the impacts) of one run; print their wall times."""
-    model = FemModel(PRESETS[preset](**({"wall.kind": "deformable"} if deformable_wall else {})))
+    model = FemModel(PRESETS[preset](**values))
     stats, impacts = None, []
     for i in range(1, round(t_end / 1e-3) + 1):
         profiler = cProfile.Profile()
@@ -94,15 +95,19 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3, help="runs; the one with the least CPU time is printed")
     parser.add_argument("--preset", choices=sorted(PRESETS), default="stiff", help="the scene")
     parser.add_argument("--deformable-wall", action="store_true", help="the meshed (deformable) wall block")
+    parser.add_argument("--mesh-size", type=float, default=0.0, help="model.mesh_size (0: the scene's default)")
     parser.add_argument("--profile", type=int, default=0, help="run once under cProfile, print this many entries")
     parser.add_argument("--impacts", action="store_true", help="with --profile: the impact doSteps alone")
     args = parser.parse_args()
+    values: dict[str, object] = {"wall.kind": "deformable"} if args.deformable_wall else {}
+    if args.mesh_size:
+        values["model.mesh_size"] = args.mesh_size
     if args.profile and args.impacts:
-        profile_impacts(args.t_end, args.preset, args.deformable_wall, args.profile)
+        profile_impacts(args.t_end, args.preset, values, args.profile)
         return
     if args.profile:
         profiler = cProfile.Profile()
-        result = profiler.runcall(run, args.t_end, args.preset, args.deformable_wall)
+        result = profiler.runcall(run, args.t_end, args.preset, values)
         pstats.Stats(profiler).sort_stats("tottime").print_stats(args.profile)
         timers = sorted(ngs.Timers(), key=lambda t: -t["time"])[: args.profile]
         print("NGSolve timers (s, calls):")
@@ -110,7 +115,7 @@ def main() -> None:
             print(f"  {t['time']:8.3f} {t['counts']:7d}  {t['name']}")
         print(result, "load average", os.getloadavg())
         return
-    runs = [run(args.t_end, args.preset, args.deformable_wall) for _ in range(args.repeat)]
+    runs = [run(args.t_end, args.preset, values) for _ in range(args.repeat)]
     best = min(runs, key=lambda r: r["cpu_per_sim_s"])
     load = " ".join(f"{v:.2f}" for v in os.getloadavg())
     cpus = ", ".join(f"{r['cpu_per_sim_s']:.3f}" for r in runs)
