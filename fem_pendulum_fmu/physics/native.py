@@ -49,6 +49,7 @@ SIGNATURES = {
     "femp_update": (_I, _I, _P, _P),
     "femp_min_det": (_I, _P, _P, _P, _I, _P),
     "femp_strain_energy": (_I, _P, _P, _P, _I, _P, _P, _D, _D),
+    "femp_strain_energy_of": (_I, _P, _P, _D, _D),
     "femp_lu_factor": (_I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _D, _P),
     "femp_stress_tangent": (_I, _P, _P, _P, _I, _P, _P, _P, _P, _D, _D, _I, _P, _P, _P, _P, _P),
     "femp_iterate": (_P, _I, _I, _D, _D),
@@ -66,6 +67,7 @@ RESULTS = {
         name: ctypes.c_double
         for name in ("femp_update", "femp_min_det", "femp_deformation", "femp_strain_energy", "femp_lu_factor")
     },
+    "femp_strain_energy_of": ctypes.c_double,
     "femp_iterate": ctypes.c_double,
     "femp_rigid_contact": ctypes.c_int,
     **{name: ctypes.c_double for name in ("femp_reduced_strain_energy", "femp_reduced_gap")},

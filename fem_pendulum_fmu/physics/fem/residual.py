@@ -244,8 +244,7 @@ class ElasticTerms:
         return np.stack((1.0 + gx[:, 0], gy[:, 0], gx[:, 1], 1.0 + gy[:, 1]))
 
     def load(self, u0: np.ndarray) -> None:
-        """The step's start displacement: its F and C, once per step (copied where min_det_F made them: a
-        step starts where the last accepted one ended, checked there)."""
+        """The step's start displacement: its F and C (copied where min_det_F made them, at its end)."""
         if u0 is self._checked:
             for b in self._bodies:
                 np.copyto(b.F0, b.F1)
@@ -324,11 +323,12 @@ class ElasticTerms:
     def strain_energy(self, u: np.ndarray) -> float:
         """The strain energy of the displacement u, integrated by the rule of the stress term: over a step
         its change is what the discrete-gradient stress does as work (material.averaged_pk2_stress)."""
-        if self._lib is not None:
-            u = np.ascontiguousarray(u, dtype=float)
-            at = u.ctypes.data
+        if self._lib is not None:  # from u's C where min_det_F kept it (the same sums), else from u
+            lib, at, kept = self._lib, np.ascontiguousarray(u, dtype=float).ctypes.data, u is self._checked
             return sum(
-                self._lib.femp_strain_energy(*head, at, b.rule.weights.ctypes.data, b.lame_lambda, b.mu)
+                lib.femp_strain_energy_of(head[0], b.C1.ctypes.data, b.rule.weights.ctypes.data, b.lame_lambda, b.mu)
+                if kept
+                else lib.femp_strain_energy(*head, at, b.rule.weights.ctypes.data, b.lame_lambda, b.mu)
                 for (head, _), b in zip(self._args, self._bodies, strict=True)
             )
         total = 0.0
