@@ -16,7 +16,12 @@ if TYPE_CHECKING:
 def scipy_matrix(mat: BaseMatrix) -> sp.csr_matrix:
     """The matrix in scipy's CSR form, with the int32 indices the compiled kernel (native.py) reads."""
     rows, cols, vals = mat.COO()
-    csr = sp.csr_matrix((np.array(vals), (np.array(rows), np.array(cols))), shape=(mat.height, mat.width))
+    coo = (np.array(vals), (np.array(rows), np.array(cols)))
+    return int32_indices(sp.csr_matrix(coo, shape=(mat.height, mat.width)))
+
+
+def int32_indices(csr: sp.csr_matrix) -> sp.csr_matrix:
+    """csr with int32 index arrays, as the compiled kernels (and MatVec) take them."""
     csr.indptr, csr.indices = csr.indptr.astype(np.int32), csr.indices.astype(np.int32)
     return csr
 

@@ -18,7 +18,7 @@ import scipy.sparse
 from ..box import Box, box_signed_distance
 from ..contact_time import ClosestPoint
 from ..fe_boundary import head_points
-from ..sparse import MatVec
+from ..sparse import MatVec, int32_indices
 from .space import FemSpace, FemState
 from .wall import WALL_SEARCH_DISTANCE, WallFace
 
@@ -40,9 +40,8 @@ def trace_matrix(space: FemSpace, points: ngs.comp.MeshPoints, elements: np.ndar
         columns.append(np.asarray(gf(points)).T.ravel())
     dense = np.array(columns).T
     rows, cols = np.nonzero(dense)
-    csr = scipy.sparse.csr_matrix((dense[rows, cols], (rows, np.array(dofs)[cols])), shape=(dense.shape[0], space.nV))
-    csr.indptr, csr.indices = csr.indptr.astype(np.int32), csr.indices.astype(np.int32)
-    return csr
+    shape = (dense.shape[0], space.nV)
+    return int32_indices(scipy.sparse.csr_matrix((dense[rows, cols], (rows, np.array(dofs)[cols])), shape=shape))
 
 
 class HeadBoundary:
