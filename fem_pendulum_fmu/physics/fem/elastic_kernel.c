@@ -10,18 +10,23 @@
  */
 #include <math.h>
 
-/* grad[p] = (du_x/dx, du_x/dy, du_y/dx, du_y/dy) at point p; u = (u_x (nS), u_y (nS)) */
+/* grad[p] = (du_x/dx, du_x/dy, du_y/dx, du_y/dy) at point p; u = (u_x (nS), u_y (nS)). The d/dy row holds
+ * the d/dx row's columns in the same order (ElasticTerms checks it): each u entry is read once for both
+ * rows, the four sums made in the order of the rows as before. */
 static void gradients_at(int p, int q, const int *indptr, const int *indices, const double *data, int nS,
                          const double *u, double g[4]) {
-    g[0] = g[1] = g[2] = g[3] = 0.0;
-    for (int k = indptr[p]; k < indptr[p + 1]; ++k) {
-        g[0] += data[k] * u[indices[k]];
-        g[2] += data[k] * u[nS + indices[k]];
+    const int *idx = indices + indptr[p];
+    const double *gx = data + indptr[p], *gy = data + indptr[q + p];
+    int m = indptr[p + 1] - indptr[p];
+    double g0 = 0.0, g1 = 0.0, g2 = 0.0, g3 = 0.0;
+    for (int k = 0; k < m; ++k) {
+        double ux = u[idx[k]], uy = u[nS + idx[k]];
+        g0 += gx[k] * ux;
+        g2 += gx[k] * uy;
+        g1 += gy[k] * ux;
+        g3 += gy[k] * uy;
     }
-    for (int k = indptr[q + p]; k < indptr[q + p + 1]; ++k) {
-        g[1] += data[k] * u[indices[k]];
-        g[3] += data[k] * u[nS + indices[k]];
-    }
+    g[0] = g0, g[1] = g1, g[2] = g2, g[3] = g3;
 }
 
 /* F (4 per point: 00 01 10 11) and C = F^T F (3 per point: 00 01 11) of the displacement u */
@@ -75,13 +80,15 @@ void femp_stress_residual(int q, const int *indptr, const int *indices, const do
         double w = weights[p];
         double p00 = w * (m00 * s00 + m01 * s01), p01 = w * (m00 * s01 + m01 * s11);
         double p10 = w * (m10 * s00 + m11 * s01), p11 = w * (m10 * s01 + m11 * s11);
-        for (int k = indptr[p]; k < indptr[p + 1]; ++k) {
-            out[indices[k]] += data[k] * p00;
-            out[nS + indices[k]] += data[k] * p10;
-        }
-        for (int k = indptr[q + p]; k < indptr[q + p + 1]; ++k) {
-            out[indices[k]] += data[k] * p01;
-            out[nS + indices[k]] += data[k] * p11;
+        /* each entry gets the d/dx row's term, then the d/dy row's, as two loops over the rows would add them */
+        const int *idx = indices + indptr[p];
+        const double *gx = data + indptr[p], *gy = data + indptr[q + p];
+        for (int k = 0, m = indptr[p + 1] - indptr[p]; k < m; ++k) {
+            double *ox = out + idx[k], *oy = out + nS + idx[k];
+            *ox += gx[k] * p00;
+            *oy += gx[k] * p10;
+            *ox += gy[k] * p01;
+            *oy += gy[k] * p11;
         }
     }
 }

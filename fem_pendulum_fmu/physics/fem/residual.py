@@ -207,6 +207,16 @@ class _Body:
         return head, middle
 
 
+def _check_rows_share_columns(grad: sp.csr_matrix, q: int) -> None:
+    """The kernels read a point's d/dx and d/dy rows (p and q + p) through the d/dx row's columns."""
+    ptr, idx = grad.indptr, grad.indices
+    same = np.array_equal(np.diff(ptr[: q + 1]), np.diff(ptr[q:])) and np.array_equal(
+        idx[ptr[0] : ptr[q]], idx[ptr[q] : ptr[2 * q]]
+    )
+    if not same:
+        raise ValueError("the rule's d/dx and d/dy rows hold different columns")
+
+
 class ElasticTerms:
     """The discrete-gradient stress term h P(F0, F1) : Grad(du) of every body: the same integrand and
     rule as the step form's, in the compiled kernel (native.py) or else in numpy (fem/material_points.py)."""
@@ -218,6 +228,7 @@ class ElasticTerms:
             rule = volume_rule(space, region)
             gauss = material.GAUSS_ON_UNIT_INTERVAL[dg_points(mat)]
             q = len(rule.weights)
+            _check_rows_share_columns(rule.grad, q)
             self._bodies.append(
                 _Body(
                     rule,
