@@ -213,8 +213,8 @@ class HeldJacobianNewton:
         refresh = self.held is None
         if self.held is not None and abs(self.held.serves - dt) > HELD_DT_CHANGE * dt:
             refresh = not self._rescale(dt)
-        # the pendulum's rotation since the start of the step the held Jacobian was assembled in
-        turn = 0.0 if self.held is None else self._turn.angle(step.u0) - self._held_angle(self.held)
+        # the pendulum's rotation since the step the held Jacobian was assembled in (_mid_angle)
+        turn = 0.0 if self.held is None else self._mid_angle(step.u0, guess) - self._held_angle(self.held)
         last, tol, refreshes = math.inf, NEWTON_RTOL * scale + 1e-15, 0
         fused, split = self._fused, self._split
         if fused is not None:
@@ -243,10 +243,18 @@ class HeldJacobianNewton:
             last = size
         return None
 
+    def _mid_angle(self, u0: np.ndarray, u1: np.ndarray) -> float:
+        """The pendulum's angle halfway through a step from u0 to (about) u1. The step form's Jacobian
+        depends on both ends: turned by the rotation of the start alone, the held one was off by the turn
+        the pendulum makes within a step (omega dt, up to 1e-3 rad at 1 ms steps), and its iterations
+        contracted by 1e-2 instead of 1e-3 on the steel swing (docs/fem.md, change 15)."""
+        return 0.5 * (self._turn.angle(u0) + self._turn.angle(u1))
+
     def _held_angle(self, held: JacobianPoint) -> float:
-        """The pendulum's angle at the start of the held Jacobian's step, computed once per held point."""
+        """The pendulum's angle halfway through the held Jacobian's step (from its start to the iterate it
+        was assembled at), computed once per held point."""
         if self._held_at is not held:
-            self._held_at, self._held_turn = held, self._turn.angle(held.load.u0)
+            self._held_at, self._held_turn = held, self._mid_angle(held.load.u0, held.w[: self._nV])
         return self._held_turn
 
     def _update(self, turn: float) -> float:
