@@ -365,7 +365,43 @@ struct femp_iteration {
     const int *ix, *iy;
     double *res, *moved, *turned, *corr, *w;
     const struct femp_rigid_contact *contact; /* NULL: none compiled */
+    double *f_last, *g_last; /* the last iteration's -corr (n_disp) and updated w (size): secant_step */
+    int has_last;            /* 0: no iteration yet with this Jacobian (FusedIteration.prepare) */
 };
+
+/* The iterations with a held Jacobian are a fixed-point map g(x) = x - corr(x) that contracts linearly;
+ * the secant (Anderson, depth 1) step combines the last two: x+ = g - gamma (g - g_last) with gamma
+ * minimising |f - gamma (f - f_last)| over the displacements, f = -corr. Returns the correction's largest
+ * displacement entry as femp_update does (-1 if not finite). A combination beyond SECANT_LARGEST (a
+ * contraction slower than 0.99, or none) is not taken. */
+#define SECANT_LARGEST 100.0
+static double secant_step(struct femp_iteration *it) {
+    int size = it->size, n = it->n_disp;
+    double *w = it->w, *f_last = it->f_last, *g_last = it->g_last;
+    const double *corr = it->corr;
+    double biggest = 0.0, num = 0.0, den = 0.0;
+    for (int i = 0; i < size; ++i) {
+        double ci = corr[i];
+        if (!isfinite(ci)) return -1.0;
+        w[i] -= ci;
+        if (i < n) {
+            double df = -ci - f_last[i];
+            num += df * -ci;
+            den += df * df;
+            if (fabs(ci) > biggest) biggest = fabs(ci);
+        }
+    }
+    double gamma = it->has_last && den > 0.0 ? num / den : 0.0;
+    if (!(fabs(gamma) <= SECANT_LARGEST)) gamma = 0.0;
+    for (int i = 0; i < size; ++i) {
+        double g = w[i];
+        if (i < n) f_last[i] = -corr[i];
+        if (gamma != 0.0) w[i] = g - gamma * (g - g_last[i]);
+        g_last[i] = g;
+    }
+    it->has_last = 1;
+    return biggest;
+}
 
 static void csr_axpy(const struct femp_csr *m, double a, const double *x, double *out) {
     femp_csr_axpy(m->n, m->indptr, m->indices, m->data, a, x, out);
@@ -373,7 +409,7 @@ static void csr_axpy(const struct femp_csr *m, double a, const double *x, double
 
 /* res_holds_contact: 1 if res holds the contact term, 0 if there is none, 2 to make the compiled rigid-wall
  * term here (fem/rigid_contact.py) */
-double femp_iterate(const struct femp_iteration *it, int res_holds_contact, int turn, double c, double s) {
+double femp_iterate(struct femp_iteration *it, int res_holds_contact, int turn, double c, double s) {
     int size = it->size;
     double *res = it->res;
     if (res_holds_contact == 2) res_holds_contact = femp_rigid_contact(it->contact, it->w, size, res);
@@ -397,5 +433,5 @@ double femp_iterate(const struct femp_iteration *it, int res_holds_contact, int 
     else
         femp_lu_solve(f->n, f->free_dofs, f->scale, f->perm_r, f->perm_c, f->Lp, f->Li, f->Lx, f->Up, f->Ui, f->Ux,
                       f->u_diag, res, f->work, it->corr);
-    return femp_update(size, it->n_disp, it->corr, it->w);
+    return secant_step(it);
 }
