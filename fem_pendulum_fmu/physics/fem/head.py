@@ -15,7 +15,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse
 
-from ..box import Box, box_signed_distance
+from ..box import Box
 from ..contact_time import ClosestPoint
 from ..fe_boundary import head_points
 from ..sparse import MatVec, int32_indices
@@ -127,13 +127,11 @@ class HeadBoundary:
         if self._face is not None:
             p = self.positions(xs.u)
             p = p - self._face.shift(p, xs.u, self._space.scene.block)
-            dist, nxs, nys = box_signed_distance(p[:, 0], p[:, 1], self._space.scene.block)
-            i = int(np.argmin(dist))
-            nx, ny = float(nxs[i]), float(nys[i])
+            dist = self._box.distances(p[:, 0], p[:, 1])
         else:
             p, dist = self.distances(xs.u)
-            i = int(np.argmin(dist))
-            nx, ny = self._box.normal(float(p[i, 0]), float(p[i, 1]))
+        i = int(np.argmin(dist))
+        nx, ny = self._box.normal(float(p[i, 0]), float(p[i, 1]))
         vel = self.values(xs.v)[i]
         result = ClosestPoint(p, dist, i, (nx, ny), float(nx * vel[0] + ny * vel[1]))
         self._closest = (xs, result)

@@ -94,7 +94,7 @@ class FemModel:
         inertia = None if split is None else (split.linear.mass, split.linear.inertia_coefficient)
         # the compiled Jacobian where the contact is the rigid wall's (or none); the meshed wall's is NGSolve's
         tangent = None if split is None or self.form.wall_residual is not None else split.jacobian
-        args = (self.loader.load, turn, inertia, tangent)
+        args = (self.loader.load, turn, inertia, tangent, self.form.linearise)
         self.newton = HeldJacobianNewton(self.form.form, residual, self.space, *args)
         self.time = 0.0
         self._state = self._start_state()

@@ -150,8 +150,11 @@ class HeldJacobianNewton:
         turn: Turn,
         inertia: Inertia | None = None,
         tangent: Tangent | None = None,
+        linearise: Callable[[ngs.BaseVector], None] | None = None,
     ):
         self.form = form  # the ngsolve BilinearForm of the step: its linearisation is the Jacobian
+        # linearise(w): form.mat = the form's linearisation at w (StepForm.linearise)
+        self._linearise = form.AssembleLinearization if linearise is None else linearise
         self._apply = residual
         self.w = GridFunction(space.X)
         self._res = self.w.vec.CreateVector()
@@ -290,7 +293,7 @@ class HeldJacobianNewton:
     def _compiled_jacobian(self, tangent: Tangent) -> Callable[[ngs.BaseVector], np.ndarray]:
         """The Jacobian on the full form's pattern, learnt from one assembly here (its entries unused): every
         Jacobian then comes from `tangent`, so that a restored model rebuilds the same one."""
-        self.form.AssembleLinearization(self.w.vec)
+        self._linearise(self.w.vec)
         pattern = self._factor.pattern_of(self.form.mat)
         return tangent(self._factor.free, pattern.indptr, pattern.indices)
 
@@ -300,7 +303,7 @@ class HeldJacobianNewton:
         if self._jacobian is not None:
             self._factor.factorise_entries(self._jacobian(self.w.vec))
             return
-        self.form.AssembleLinearization(self.w.vec)
+        self._linearise(self.w.vec)
         self._factor.factorise(self.form.mat)
 
     def _rescale(self, dt: float) -> bool:

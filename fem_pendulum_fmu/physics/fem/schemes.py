@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import ngsolve as ngs
 import numpy as np
@@ -66,12 +66,16 @@ class StepForm:
     pairs_empty: bool = True  # the form holds no contact pairs
     split: SplitResidual | None = None  # the same residual, faster (fem/residual.py); None: form.Apply
     wall_residual: WallResidual | None = None  # the wall contact alone, paired with the form (for split)
+    # (u0, radius) of the form's own pairing where it is put off until the form is linearised
+    _pairing: tuple[GridFunction, float] | None = field(default=None, repr=False)
 
     def update_wall_pairs(self, u0: GridFunction) -> None:
         """Pair the meshed wall's face with the head at the displacement u0 (nothing without that wall),
         within the radius the step needs (PairGuard); none while the head cannot reach the wall within the
         step, where an update that would leave none is skipped (an update cost 1-2 ms, and a pair's
-        evaluation in a residual about 20 us)."""
+        evaluation in a residual about 20 us). With the split residual the form itself is only linearised,
+        for a new Jacobian (about one in 500 steps against the wall): its pairing waits for `linearise`,
+        which saves one of the two updates of a step in reach of the wall (0.7 ms)."""
         if self.wall_contact is None:
             return
         radius = WALL_SEARCH_DISTANCE if self.pair_guard is None else self.pair_guard.radius(u0.vec.FV().NumPy())
@@ -79,10 +83,22 @@ class StepForm:
         if far and self.pairs_empty:
             return
         maxdist = NO_PAIRS if far else radius
-        self.wall_contact.Update(u0, self.form, intorder=WALL_CONTACT_INTORDER, maxdist=maxdist)
+        if self.split is None:
+            self.wall_contact.Update(u0, self.form, intorder=WALL_CONTACT_INTORDER, maxdist=maxdist)
+        else:
+            self._pairing = (u0, maxdist)
         self.pairs_empty = far
         if self.wall_residual is not None:
             self.wall_residual.update(u0, maxdist)
+
+    def linearise(self, w: ngs.BaseVector) -> None:
+        """The form's linearisation at w into form.mat, its wall pairs made first where they were put off
+        (at the step loaded last: its u0 is still in the GridFunction the pairing was given)."""
+        if self._pairing is not None:
+            u0, maxdist = self._pairing
+            self.wall_contact.Update(u0, self.form, intorder=WALL_CONTACT_INTORDER, maxdist=maxdist)
+            self._pairing = None
+        self.form.AssembleLinearization(w)
 
 
 # ------------------------------------------------------------------ pieces both forms are made of
