@@ -94,7 +94,7 @@ class StepForm:
     def linearise(self, w: ngs.BaseVector) -> None:
         """The form's linearisation at w into form.mat, its wall pairs made first where they were put off
         (at the step loaded last: its u0 is still in the GridFunction the pairing was given)."""
-        if self._pairing is not None:
+        if self._pairing is not None and self.wall_contact is not None:
             u0, maxdist = self._pairing
             self.wall_contact.Update(u0, self.form, intorder=WALL_CONTACT_INTORDER, maxdist=maxdist)
             self._pairing = None
