@@ -12,7 +12,7 @@ the secant step: from a Jacobian's second iteration in a solve, the updated
 iterate is combined with the last one (Anderson acceleration of depth 1;
 elastic_kernel.c, secant_step). The held Jacobian's iterations contract
 linearly; on the rubber scene, whose large deformation the held Jacobian
-follows least, the step took 16 % fewer of them (docs/fem.md, change 16).
+follows least, the step took 20 % fewer of them (docs/fem.md, change 16).
 """
 
 from __future__ import annotations
