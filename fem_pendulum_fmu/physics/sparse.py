@@ -45,3 +45,13 @@ class MatVec:
         out = np.zeros(self._args[0])
         self._lib.femp_csr_axpy(*self._args, 1.0, x.ctypes.data, out.ctypes.data)
         return out
+
+
+def require_halves_share_columns(matrix: sp.csr_matrix) -> None:
+    """Row i and row n/2 + i of the matrix hold the same columns in the same order, for every i: a point's
+    d/dx and d/dy rows of a gradient matrix, which the compiled kernels read through the d/dx row's columns
+    (fem/elastic_kernel.c, gradients_at). ValueError where they do not."""
+    ptr, idx, q = matrix.indptr, matrix.indices, matrix.shape[0] // 2
+    same_lengths = np.array_equal(np.diff(ptr[: q + 1]), np.diff(ptr[q:]))
+    if not (same_lengths and np.array_equal(idx[ptr[0] : ptr[q]], idx[ptr[q] : ptr[2 * q]])):
+        raise ValueError("the gradient matrix's d/dx and d/dy rows hold different columns")

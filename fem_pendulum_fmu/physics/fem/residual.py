@@ -35,7 +35,7 @@ from ngsolve.fem import BaseMappedIntegrationPoint
 
 from .. import material, native
 from ..scene import Material
-from ..sparse import scipy_matrix
+from ..sparse import require_halves_share_columns, scipy_matrix
 from . import material_points as points
 from .space import FemSpace
 
@@ -162,9 +162,8 @@ def volume_rule(space: FemSpace, region: str) -> VolumeRule:
             continue
         ei = ngs.ElementId(el)
         fel, dofs = scalar.GetFE(ei), np.array(scalar.GetDofNrs(ei))
-        # the mapped points made from the rule's MeshPoints belong to Python and are freed with it: a point
-        # made by trafo(x, y) is never freed (NGSolve hands it over by reference), about 170 bytes each, 58 kB a
-        # model on the steel scene's default mesh (tests/test_fmu_memory.py); the numbers are the same
+        # points mapped from the rule's MeshPoints are Python's and freed with it: one made by trafo(x, y) is
+        # never freed (NGSolve hands it over by reference; 58 kB a model, tests/test_fmu_memory.py); same numbers
         for point, weight in zip(mesh.GetTrafo(ei)(rule), rule.weights, strict=True):
             mip = BaseMappedIntegrationPoint(point)
             dshape = np.array(fel.CalcDShape(mip))
@@ -207,16 +206,6 @@ class _Body:
         return head, middle
 
 
-def _check_rows_share_columns(grad: sp.csr_matrix, q: int) -> None:
-    """The kernels read a point's d/dx and d/dy rows (p and q + p) through the d/dx row's columns."""
-    ptr, idx = grad.indptr, grad.indices
-    same = np.array_equal(np.diff(ptr[: q + 1]), np.diff(ptr[q:])) and np.array_equal(
-        idx[ptr[0] : ptr[q]], idx[ptr[q] : ptr[2 * q]]
-    )
-    if not same:
-        raise ValueError("the rule's d/dx and d/dy rows hold different columns")
-
-
 class ElasticTerms:
     """The discrete-gradient stress term h P(F0, F1) : Grad(du) of every body: the same integrand and
     rule as the step form's, in the compiled kernel (native.py) or else in numpy (fem/material_points.py)."""
@@ -228,7 +217,7 @@ class ElasticTerms:
             rule = volume_rule(space, region)
             gauss = material.GAUSS_ON_UNIT_INTERVAL[dg_points(mat)]
             q = len(rule.weights)
-            _check_rows_share_columns(rule.grad, q)
+            require_halves_share_columns(rule.grad)
             self._bodies.append(
                 _Body(
                     rule,
@@ -295,7 +284,7 @@ class ElasticTerms:
             starts, pairs, end, last = [], [], 0, np.zeros(0)
             for p in range(q):
                 dofs = g.indices[g.indptr[p] : g.indptr[p + 1]]
-                if len(dofs) > 32:  # (the d/dy row holds the same columns: _check_rows_share_columns)
+                if len(dofs) > 32:  # (the d/dy row holds the same columns: require_halves_share_columns)
                     raise ValueError("a point of the rule holds over 32 basis functions")
                 if p == 0 or not np.array_equal(dofs, last):
                     both = np.concatenate((dofs, dofs + self.nS))
