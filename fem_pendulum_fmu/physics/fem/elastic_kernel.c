@@ -379,17 +379,12 @@ static double secant_step(struct femp_iteration *it) {
     int size = it->size, n = it->n_disp;
     double *w = it->w, *f_last = it->f_last, *g_last = it->g_last;
     const double *corr = it->corr;
-    double biggest = 0.0, num = 0.0, den = 0.0;
-    for (int i = 0; i < size; ++i) {
-        double ci = corr[i];
-        if (!isfinite(ci)) return -1.0;
-        w[i] -= ci;
-        if (i < n) {
-            double df = -ci - f_last[i];
-            num += df * -ci;
-            den += df * df;
-            if (fabs(ci) > biggest) biggest = fabs(ci);
-        }
+    double biggest = femp_update(size, n, corr, w), num = 0.0, den = 0.0;
+    if (biggest < 0.0) return biggest;
+    for (int i = 0; i < n; ++i) {
+        double df = -corr[i] - f_last[i];
+        num += df * -corr[i];
+        den += df * df;
     }
     double gamma = it->has_last && den > 0.0 ? num / den : 0.0;
     if (!(fabs(gamma) <= SECANT_LARGEST)) gamma = 0.0;
