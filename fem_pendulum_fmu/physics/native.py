@@ -1,5 +1,5 @@
-"""Compiled inner loops (fem/elastic_kernel.c, fem/rigid_contact_kernel.c, reduced/reduced_kernel.c): built once per
-machine, cached.
+"""Compiled inner loops (fem/elastic_kernel.c, fem/rigid_contact_kernel.c, fem/start_iterate_kernel.c,
+reduced/reduced_kernel.c): built once per machine, cached.
 
 At the FE model's size (300-700 unknowns) a residual is a few hundred
 thousand floating-point operations, which NGSolve's integrators and numpy
@@ -31,7 +31,12 @@ from .cache import cached_file
 LOG = logging.getLogger("fem_pendulum_fmu")
 SOURCES = tuple(
     Path(__file__).parent / name
-    for name in ("fem/elastic_kernel.c", "fem/rigid_contact_kernel.c", "reduced/reduced_kernel.c")
+    for name in (
+        "fem/elastic_kernel.c",
+        "fem/rigid_contact_kernel.c",
+        "fem/start_iterate_kernel.c",
+        "reduced/reduced_kernel.c",
+    )
 )
 ENV = "FEM_PENDULUM_KERNELS"  # "numpy": never compile, use the numpy forms
 # no -ffast-math and no contraction into fused multiply-adds: the same sums in the same order on every run
@@ -55,6 +60,8 @@ SIGNATURES = {
     "femp_iterate": (_P, _I, _I, _D, _D),
     "femp_rigid_contact": (_P, _P, _I, _P),
     "femp_rigid_contact_resultant": (_P, _P, _P, _P),
+    "femp_misses_record": (_I, _I, _P, _I, _P, _I, _I, _D, _D),
+    "femp_misses_predict": (_I, _I, _P, _I, _I, _D, _D),
     "femp_reduced_strain_energy": (_P, _P),
     "femp_reduced_strain_gradient": (_P, _P, _P),
     "femp_reduced_strain_hessian": (_P, _P, _P),
@@ -70,6 +77,8 @@ RESULTS = {
     "femp_strain_energy_of": ctypes.c_double,
     "femp_iterate": ctypes.c_double,
     "femp_rigid_contact": ctypes.c_int,
+    "femp_misses_predict": ctypes.c_int,
+    "femp_misses_record": ctypes.c_int,
     **{name: ctypes.c_double for name in ("femp_reduced_strain_energy", "femp_reduced_gap")},
     "femp_reduced_step": ctypes.c_int,
 }

@@ -52,6 +52,7 @@ from .rigid_contact import compiled_contact
 from .schemes import newmark_start_acceleration, scheme_for
 from .seed_stepping import Stepper
 from .space import FIDELITY, FemState, fem_space, step_inputs
+from .start_iterate import GuessErrors, predicted_miss, recorded
 from .step_load import StepLoad
 from .step_loader import StepLoader
 
@@ -138,32 +139,52 @@ class FemModel:
         self.loader.load(step)
         return step
 
-    def _guess(self, xs: FemState, step: StepLoad) -> np.ndarray:
-        """Newton's start iterate: u0 + dt times the last step's mean velocity (u0 - u_prev) / dt_prev
-        where no contact can act within the step, else u0 + dt v0. The midpoint rule's end velocity v0
-        carries an alternating part in the modes a step does not resolve, which the mean over a step
-        does not: after the first impact, 1 ms steps from u0 + dt v0 missed u1 by 3.7e-3 m (rubber) and
-        1.2e-4 m (steel), from the mean velocity by 7.4e-4 and 5.7e-5 m (medians). Within reach of the
+    def _drift_guess(self, xs: FemState, step: StepLoad) -> np.ndarray | None:
+        """u0 + dt times the last step's mean velocity (u0 - u_prev) / dt_prev where no contact can act
+        within the step; None where the start iterate is u0 + dt v0 instead. The midpoint rule's end
+        velocity v0 carries an alternating part in the modes a step does not resolve, which the mean over
+        a step does not: after the first impact, 1 ms steps from u0 + dt v0 missed u1 by 3.7e-3 m (rubber)
+        and 1.2e-4 m (steel), from the mean velocity by 7.4e-4 and 5.7e-5 m (medians). Within reach of the
         wall the mean velocity of a step before the contact set changes is the worse guess: across an
-        impact in 0.1 s doSteps it moved the energy balance from 1e-7 to 3e-7 of the energy moved."""
-        in_reach = step.active.size > 0 if step.active is not None else self.space.wall_contact_on
-        return xs.u + step.dt * (xs.v if xs.drift is None or in_reach else xs.drift)
+        impact in 0.1 s doSteps it moved the energy balance from 1e-7 to 3e-7 of the energy moved. The
+        meshed wall is within reach where the step has its pairs (StepForm.update_wall_pairs)."""
+        if step.active is not None:
+            in_reach = step.active.size > 0
+        else:
+            in_reach = self.form.wall_contact is not None and not self.form.pairs_empty
+        return None if xs.drift is None or in_reach else xs.u + step.dt * xs.drift
+
+    def _guess(self, xs: FemState, step: StepLoad) -> np.ndarray:
+        """Newton's start iterate: the drift guess plus the miss its recurrence predicts (fem/start_iterate.py),
+        else u0 + dt v0."""
+        drift = self._drift_guess(xs, step)
+        if drift is None:
+            return xs.u + step.dt * xs.v
+        miss = predicted_miss(xs.guess_errors, step.dt)
+        return drift if miss is None else drift + miss
 
     def step(self, xs: FemState, dt: float, torque: float) -> FemState | None:
         """One step of the scheme; None when it cannot be taken (the stepper then halves dt)."""
-        u1 = self._solve_covering_contact(xs, self.load_step(xs, dt, torque))
+        step = self.load_step(xs, dt, torque)
+        u1 = self._solve_covering_contact(xs, step)
         if u1 is None or self.min_det_F(u1) <= 0.0:
             return None  # no convergence, or an element turned inside out
         v1 = 2.0 / dt * (u1 - xs.u) - xs.v
         a1 = self.scheme.end_acceleration(xs, v1, dt)
         work = self.measures.torque_work_increment(xs.u, u1, torque)
         drift = None if self.scheme.carries_acceleration else (u1 - xs.u) / dt
-        x1 = FemState(u1, v1, self.newton.multipliers(), xs.torque_work + work, a1, drift=drift)
+        misses = self._misses(xs, step, u1)
+        x1 = FemState(u1, v1, self.newton.multipliers(), xs.torque_work + work, a1, drift=drift, guess_errors=misses)
         if self.scheme.energy_guard:
             (e0, m0), (e1, m1) = self._energy_of(xs), self._energy_of(x1)
             if abs(e1 - e0 - work) > STEP_ENERGY_TOLERANCE * (max(m0, m1) + abs(work)):
                 return None  # the Gauss rule of the discrete gradient is off: a smaller step
         return x1
+
+    def _misses(self, xs: FemState, step: StepLoad, u1: np.ndarray) -> GuessErrors | None:
+        """The start iterates' misses with this step's (from its drift guess); None after a step without one."""
+        drift = self._drift_guess(xs, step)
+        return None if drift is None else recorded(xs.guess_errors, step.dt, u1 - drift)
 
     def _solve_covering_contact(self, xs: FemState, step: StepLoad) -> np.ndarray | None:
         """Solve; if a head point ends inside the block off the contact set, widen the set once and re-solve."""

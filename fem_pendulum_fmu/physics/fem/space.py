@@ -17,6 +17,7 @@ from ..fe_boundary import hinge_torque_load
 from ..geometry import make_mesh
 from ..protocol import ModelState, Outputs, check_state_fidelity, model_state
 from ..scene import Material, Scene
+from .start_iterate import GuessErrors
 from .step_load import JacobianPoint, StepLoad
 
 FIDELITY = "fem"
@@ -33,6 +34,7 @@ class FemState:
     torque_work: float
     a: np.ndarray | None = None  # acceleration, carried by the Newmark schemes only
     drift: np.ndarray | None = None  # the mean velocity (u1 - u0) / dt of the energy-momentum step that led here
+    guess_errors: GuessErrors | None = None  # the misses of the start iterates before (fem/start_iterate.py)
     energies: tuple[float, float, float, float] | None = None  # kinetic, potential, strain, contact (FemOutputs)
 
     def to_model_state(self, time: float, outputs: Outputs, held_jacobian: JacobianPoint | None) -> ModelState:
@@ -44,6 +46,10 @@ class FemState:
             arrays["a"] = self.a.copy()
         if self.drift is not None:
             arrays["drift"] = self.drift.copy()
+        if self.guess_errors is not None:
+            guess_scalars, guess_arrays = self.guess_errors.to_entries()
+            scalars.update(guess_scalars)
+            arrays.update(guess_arrays)
         if held_jacobian is not None:
             jac_scalars, jac_arrays = held_jacobian.to_entries()
             scalars.update(jac_scalars)
@@ -73,6 +79,7 @@ class FemState:
             sc["torque_work"],
             arr["a"].copy() if carries_acceleration else None,
             drift=arr["drift"].copy() if "drift" in arr else None,
+            guess_errors=GuessErrors.from_entries(sc, arr, n_displacements),
         )
         return fem_state, JacobianPoint.from_entries(sc, arr) if "jac_w" in arr else None
 
