@@ -4,15 +4,15 @@ After an impact the bodies ring (the steel plate at about 1 kHz), and 1 ms steps
 do not resolve that ringing: the guess u0 + dt (u0 - u_prev) / dt missed the
 step's end by 1e-5 to 5e-4 m where it missed it by 2e-6 m before the first
 impact, and the held Jacobian, which gains about two digits an iteration, took
-5.5 to 6 iterations a step instead of 4 (docs/fem.md, change 19). Those
+5 to 6 iterations a step instead of 4 (docs/fem.md, change 19). Those
 misses are not noise: at equal steps a linear body's modes each follow a
 fixed two-term recurrence, and so does their sum of a few dominant ones. So
 the misses of the last WINDOW + DEPTH equal free-flight steps are kept
 (`GuessErrors`, part of the model's state: a restored model starts the same
 iterates), a recurrence of DEPTH terms is fitted to them by least squares
 (from their inner products, kept with them), and the next miss predicted by
-it. On the steel scene it predicted the miss to 5e-4 of its size (median), on
-the 0.005 m mesh and the meshed wall too; on the rubber, whose misses come
+it. On the steel scene it predicted the miss to a median 1.3e-3 of its size,
+on the 0.005 m mesh and the meshed wall as well; on the rubber, whose misses come
 from its large deformation, it explained a quarter of them, and is not used
 (FIT_LEFT). Any prediction is only a start: the step solves to the same
 tolerance from it.
