@@ -52,7 +52,7 @@ from .rigid_contact import compiled_contact
 from .schemes import newmark_start_acceleration, scheme_for
 from .seed_stepping import Stepper
 from .space import FIDELITY, FemState, fem_space, step_inputs
-from .start_iterate import GuessErrors, predicted_miss, recorded
+from .start_iterate import predicted_miss, recorded
 from .step_load import StepLoad
 from .step_loader import StepLoader
 
@@ -154,10 +154,9 @@ class FemModel:
             in_reach = self.form.wall_contact is not None and not self.form.pairs_empty
         return None if xs.drift is None or in_reach else xs.u + step.dt * xs.drift
 
-    def _guess(self, xs: FemState, step: StepLoad) -> np.ndarray:
+    def _start_iterate(self, xs: FemState, step: StepLoad, drift: np.ndarray | None) -> np.ndarray:
         """Newton's start iterate: the drift guess plus the miss its recurrence predicts (fem/start_iterate.py),
         else u0 + dt v0."""
-        drift = self._drift_guess(xs, step)
         if drift is None:
             return xs.u + step.dt * xs.v
         miss = predicted_miss(xs.guess_errors, step.dt)
@@ -166,36 +165,35 @@ class FemModel:
     def step(self, xs: FemState, dt: float, torque: float) -> FemState | None:
         """One step of the scheme; None when it cannot be taken (the stepper then halves dt)."""
         step = self.load_step(xs, dt, torque)
-        u1 = self._solve_covering_contact(xs, step)
+        drift = self._drift_guess(xs, step)
+        u1 = self._solve_covering_contact(xs, step, self._start_iterate(xs, step, drift))
         if u1 is None or self.min_det_F(u1) <= 0.0:
             return None  # no convergence, or an element turned inside out
         v1 = 2.0 / dt * (u1 - xs.u) - xs.v
         a1 = self.scheme.end_acceleration(xs, v1, dt)
         work = self.measures.torque_work_increment(xs.u, u1, torque)
-        drift = None if self.scheme.carries_acceleration else (u1 - xs.u) / dt
-        misses = self._misses(xs, step, u1)
-        x1 = FemState(u1, v1, self.newton.multipliers(), xs.torque_work + work, a1, drift=drift, guess_errors=misses)
+        mean_velocity = None if self.scheme.carries_acceleration else (u1 - xs.u) / dt
+        misses = None if drift is None else recorded(xs.guess_errors, dt, u1 - drift)
+        x1 = FemState(
+            u1, v1, self.newton.multipliers(), xs.torque_work + work, a1, drift=mean_velocity, guess_errors=misses
+        )
         if self.scheme.energy_guard:
             (e0, m0), (e1, m1) = self._energy_of(xs), self._energy_of(x1)
             if abs(e1 - e0 - work) > STEP_ENERGY_TOLERANCE * (max(m0, m1) + abs(work)):
                 return None  # the Gauss rule of the discrete gradient is off: a smaller step
         return x1
 
-    def _misses(self, xs: FemState, step: StepLoad, u1: np.ndarray) -> GuessErrors | None:
-        """The start iterates' misses with this step's (from its drift guess); None after a step without one."""
-        drift = self._drift_guess(xs, step)
-        return None if drift is None else recorded(xs.guess_errors, step.dt, u1 - drift)
-
-    def _solve_covering_contact(self, xs: FemState, step: StepLoad) -> np.ndarray | None:
-        """Solve; if a head point ends inside the block off the contact set, widen the set once and re-solve."""
+    def _solve_covering_contact(self, xs: FemState, step: StepLoad, start: np.ndarray) -> np.ndarray | None:
+        """Solve from `start`; if a head point ends inside the block off the contact set, widen the set once
+        and re-solve from u0 + dt v0 (the start of a step with contact in reach: _drift_guess)."""
         for _attempt in range(2):
-            u1 = self.newton.solve(step, self._guess(xs, step), xs.hinge_multipliers)
+            u1 = self.newton.solve(step, start, xs.hinge_multipliers)
             if u1 is None:
                 return None
             widened = self.loader.covering(step, u1)
             if widened is None:
                 return u1
-            step = widened
+            step, start = widened, xs.u + widened.dt * xs.v
         return None
 
     def _energy_of(self, s: FemState) -> tuple[float, float]:

@@ -45,7 +45,7 @@ from .step_load import JacobianPoint, StepLoad
 # a re-assembly and factorisation about 8 ms: the held Jacobian is kept while the corrections shrink by at
 # least 1 / SLOWEST_CONTRACTION and would converge within NEWTON_MAX_IT iterations. Rubber, 2 s (four
 # impacts): 2x and 20 iterations took 701 re-assemblies from u0 + dt v0 and 349 (28369 iterations) from
-# FemModel._guess; 1.4x and 30 take 190 (33687 iterations): 6 % less time (docs/fem.md). With the Jacobian
+# FemModel._drift_guess; 1.4x and 30 take 190 (33687 iterations): 6 % less time (docs/fem.md). With the Jacobian
 # and its factors compiled (residual.SplitJacobian, lu.Symbolic) a new one costs about 1.5 ms, nine
 # iterations; refreshing it too when the rate predicted more than 12 or 15 iterations saved 13 % of them for
 # twice the Jacobians, no faster (docs/fem.md, "Jacobians and factors in the kernel").
@@ -59,7 +59,7 @@ SLOWEST_CONTRACTION = 0.7
 MAX_REFRESHES = 3
 # Converged when the error left (converged()) is under this share of the step's displacement (largest
 # |dt v|), plus 1e-15 m. 1e-9 took 7 % fewer iterations on the steel swing, but with the mean-velocity start
-# guess (FemModel._guess) the energy balance across an impact in 0.1 s doSteps moved to 3.5e-7 of the
+# guess (FemModel._drift_guess) the energy balance across an impact in 0.1 s doSteps moved to 3.5e-7 of the
 # energy moved (tests/test_hard_cases.py bounds it at 1e-7); with 1e-10 it stays under it.
 NEWTON_RTOL = 1e-10
 # A step size farther than this share from the held Jacobian's needs a new one (its inertia part goes as
