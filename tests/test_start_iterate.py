@@ -96,6 +96,10 @@ def test_state_entries_round_trip_and_misfits_are_refused():
         GuessErrors.from_entries(scalars, arrays, 61)
     with pytest.raises(ValueError, match="inner products of shape"):
         GuessErrors.from_entries(scalars, {**arrays, "guess_gram": np.zeros((4, 4))}, 60)
+    broken = arrays["guess_errors"].copy()
+    broken[2, 7] = np.nan
+    with pytest.raises(ValueError, match="not all finite"):
+        GuessErrors.from_entries(scalars, {**arrays, "guess_errors": broken}, 60)
 
 
 def iterations_after_the_first_impact(model: FemModel) -> tuple[int, float]:

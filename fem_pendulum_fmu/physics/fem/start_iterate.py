@@ -75,6 +75,8 @@ class GuessErrors:
                 f"fem state's start-iterate misses of shape {errors.shape} and inner products of shape "
                 f"{gram.shape} do not fit this fem model (at most {KEPT} misses of {n} dofs)"
             )
+        if not (np.all(np.isfinite(errors)) and np.all(np.isfinite(gram))):
+            raise ValueError("fem state's start-iterate misses or their inner products are not all finite")
         block = np.concatenate([errors.ravel(), gram.ravel(), np.zeros(n)]).astype(float)
         return GuessErrors(float(scalars["guess_dt"]), block, k, n, _predict(block, k, n))
 
