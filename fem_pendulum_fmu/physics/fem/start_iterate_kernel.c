@@ -1,8 +1,9 @@
-/* The start iterate's misses and their recurrence (fem/start_iterate.py), in one call each (loaded by native.py).
+/* The start iterate's misses and their recurrence (fem/start_iterate.py), (loaded by native.py).
  *
  * At the steel scene's 302 unknowns a step's iteration costs about 35 us; numpy spent more than that on the
- * two dozen inner products, the normal equations and their solve in per-call overhead. Plain C, no Python
- * API: called through ctypes, the sums in a fixed order.
+ * inner products, the normal equations and their solve in per-call overhead. femp_misses_record makes a
+ * step's record and the next prediction in one call. Plain C, no Python API: called through ctypes, the
+ * sums in a fixed order.
  */
 #include <math.h>
 
