@@ -1,4 +1,4 @@
-/* The start iterate's misses and their recurrence (fem/start_iterate.py), (loaded by native.py).
+/* The start iterate's misses and their recurrence (fem/start_iterate.py; loaded by native.py).
  *
  * At the steel scene's 302 unknowns a step's iteration costs about 35 us; numpy spent more than that on the
  * inner products, the normal equations and their solve in per-call overhead. femp_misses_record makes a
