@@ -10,6 +10,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
 from fem_pendulum_fmu.physics import native
+from fem_pendulum_fmu.physics.fem.iteration import ANDERSON_DEPTH
 from fem_pendulum_fmu.physics.fem.lu import HeldFactor
 from fem_pendulum_fmu.physics.fem.model import FemModel
 from fem_pendulum_fmu.physics.scene import compliant, stiff
@@ -165,35 +166,52 @@ def test_compiled_jacobian_equals_the_forms_linearisation(case: str) -> None:
     assert np.max(np.abs(full.data - mine)) <= 1e-12 * np.max(np.abs(full.data))
 
 
+def _anderson(f: list[np.ndarray], g: list[np.ndarray], depth: int) -> tuple[np.ndarray, np.ndarray]:
+    """The Anderson step in numpy: x = g_k - sum_j gamma_j (g_j+1 - g_j) over the last `depth` differences,
+    gamma minimising |f_k - sum_j gamma_j (f_j+1 - f_j)| (least squares); also gamma."""
+    k = len(f) - 1
+    m = min(depth, k)
+    df = np.column_stack([f[k - j] - f[k - j - 1] for j in range(m)])
+    dg = np.column_stack([g[k - j] - g[k - j - 1] for j in range(m)])
+    gamma = np.linalg.lstsq(df, f[k], rcond=None)[0]
+    return g[k] - dg @ gamma, gamma
+
+
 @pytest.mark.parametrize("case", ["rubber, turned", "steel in contact"])
 def test_fused_iteration_equals_the_separate_calls(case: str) -> None:
     """femp_iterate (fem/iteration.py) makes the residual's and the update's operations in their order: the
     same iterate and correction size bit for bit, turned or not, with the contact term or without, for the
-    first iteration after prepare. The second is combined with the first by the secant step: x = g2 -
-    gamma (g2 - g1), gamma = (f2 - f1).f2 / |f2 - f1|^2 over the displacements, f = -correction; here in
-    numpy, whose dot products sum in another order (5e-16 of the change g2 - g1 measured; 1e-12 allowed)."""
+    first iteration after prepare. The later ones are combined with the earlier by the Anderson step of
+    depth ANDERSON_DEPTH (elastic_kernel.c, secant_step): here the same step in numpy from the separate
+    calls, whose dot products sum in another order (5e-16 of the change g2 - g1 measured; 1e-12 allowed)."""
     model = _loaded_at_an_iterate(case)
     nw = model.newton
     assert nw._fused is not None and nw._split is not None
     w, start, nV = nw.w.vec, nw._w_np.copy(), model.space.nV
     turn = 0.0 if case == "steel in contact" else 2e-3
     assert nw._split.apply_contact(w, nw._res) == (case == "steel in contact")
-    separate = []
-    for _ in range(2):
+    sizes, f, g, combined = [], [], [], []
+    for k in range(ANDERSON_DEPTH + 1):  # the separate calls, each from the combined iterate before
         nw._apply(w, nw._res)
-        size = nw._update(turn)
-        separate.append((size, nw._w_np.copy(), -nw._corr_np[:nV].copy()))
-    (size1, g1, f1), (size2, g2, f2) = separate
-    gamma = float((f2 - f1) @ f2) / float((f2 - f1) @ (f2 - f1))
-    combined = g2 - gamma * (g2 - g1)
+        sizes.append(nw._update(turn))
+        g.append(nw._w_np.copy())
+        f.append(-nw._corr_np[:nV].copy())
+        if k > 0:
+            x, gamma = _anderson(f, g, ANDERSON_DEPTH)
+            assert np.all(gamma != 0.0)
+            combined.append(x)
+            nw._w_np[:] = x
     for _ in range(2):  # prepare starts a new sequence: the first iteration is not combined again
         nw._w_np[:] = start
         nw._fused.prepare(turn)
-        assert nw._fused.iterate(nw._split.apply_contact(w, nw._res)) == size1
-        assert np.array_equal(nw._w_np, g1)
-        assert nw._fused.iterate(nw._split.apply_contact(w, nw._res)) == size2
-        assert gamma != 0.0 and np.max(np.abs(nw._w_np - combined)) <= 1e-12 * np.max(np.abs(g2 - g1))
-        assert not np.array_equal(nw._w_np, g2)
+        assert nw._fused.iterate(nw._split.apply_contact(w, nw._res)) == sizes[0]
+        assert np.array_equal(nw._w_np, g[0])
+        for k in range(1, ANDERSON_DEPTH + 1):
+            size = nw._fused.iterate(nw._split.apply_contact(w, nw._res))
+            change = np.max(np.abs(g[k] - g[k - 1]))
+            assert abs(size - sizes[k]) <= 1e-12 * change
+            assert np.max(np.abs(nw._w_np - combined[k - 1])) <= 1e-12 * change
+            assert not np.array_equal(nw._w_np, g[k])
 
 
 def test_held_factor_solves_and_rescales(kernels: str) -> None:

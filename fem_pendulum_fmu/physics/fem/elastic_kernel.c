@@ -367,32 +367,96 @@ struct femp_iteration {
     const struct femp_rigid_contact *contact; /* NULL: none compiled */
     double *f_last, *g_last; /* the last iteration's -corr (n_disp) and updated w (size): secant_step */
     int has_last;            /* 0: no iteration yet with this Jacobian (FusedIteration.prepare) */
+    int depth, kept;         /* differences the step combines at most (ANDERSON_MOST), and holds now */
+    double *df, *dg;         /* the kept differences of f (n_disp each) and of g (size each), newest first */
+    double *gram;            /* their inner products, ANDERSON_MOST x ANDERSON_MOST */
 };
 
 /* The iterations with a held Jacobian are a fixed-point map g(x) = x - corr(x) that contracts linearly;
- * the secant (Anderson, depth 1) step combines the last two: x+ = g - gamma (g - g_last) with gamma
- * minimising |f - gamma (f - f_last)| over the displacements, f = -corr. Returns the correction's largest
- * displacement entry as femp_update does (-1 if not finite). A combination beyond SECANT_LARGEST (a
- * contraction slower than 0.99, or none) is not taken. */
+ * the Anderson step combines the last iterates: x+ = g - sum_j gamma_j dg_j, with dg_j the differences of
+ * the last `kept` g and gamma minimising |f - sum_j gamma_j df_j| over the displacements, f = -corr and df_j
+ * its differences. Depth 1 is the secant step, gamma = (df . f) / (df . df). The normal equations are
+ * solved by LDL^T; a difference whose pivot falls under ANDERSON_PIVOT of its own square (nearly a
+ * combination of the newer ones) ends the combination there. Returns the correction's largest
+ * displacement entry as femp_update does (-1 if not finite). A combination with a coefficient beyond
+ * SECANT_LARGEST (a contraction slower than 0.99, or none) is not taken. */
 #define SECANT_LARGEST 100.0
+#define ANDERSON_MOST 4
+#define ANDERSON_PIVOT 1e-10
+static double dot(int n, const double *a, const double *b) {
+    double sum = 0.0;
+    for (int i = 0; i < n; ++i) sum += a[i] * b[i];
+    return sum;
+}
+
+/* shift the kept differences one place older and put the newest, f - f_last and g - g_last, first */
+static void anderson_push(struct femp_iteration *it, const double *corr, const double *g) {
+    int n = it->n_disp, size = it->size, most = it->depth;
+    int kept = it->kept < most ? it->kept + 1 : most;
+    for (int j = kept - 1; j > 0; --j) {
+        for (int i = 0; i < n; ++i) it->df[j * n + i] = it->df[(j - 1) * n + i];
+        for (int i = 0; i < size; ++i) it->dg[j * size + i] = it->dg[(j - 1) * size + i];
+        for (int k = kept - 1; k > 0; --k) it->gram[j * ANDERSON_MOST + k] = it->gram[(j - 1) * ANDERSON_MOST + k - 1];
+    }
+    for (int i = 0; i < n; ++i) it->df[i] = -corr[i] - it->f_last[i];
+    for (int i = 0; i < size; ++i) it->dg[i] = g[i] - it->g_last[i];
+    for (int k = 0; k < kept; ++k) it->gram[k] = it->gram[k * ANDERSON_MOST] = dot(n, it->df, it->df + k * n);
+    it->kept = kept;
+}
+
+/* gamma of the kept differences (how many it uses: fewer where a pivot fails) */
+static int anderson_gamma(const struct femp_iteration *it, const double *corr, double *gamma) {
+    int n = it->n_disp, m = it->kept;
+    double L[ANDERSON_MOST][ANDERSON_MOST], d[ANDERSON_MOST], y[ANDERSON_MOST];
+    for (int j = 0; j < m; ++j) {
+        double num = 0.0;
+        const double *df = it->df + j * n;
+        for (int i = 0; i < n; ++i) num += df[i] * -corr[i];
+        y[j] = num;
+    }
+    for (int j = 0; j < m; ++j) {
+        double dj = it->gram[j * ANDERSON_MOST + j];
+        for (int k = 0; k < j; ++k) dj -= L[j][k] * L[j][k] * d[k];
+        if (!(dj > ANDERSON_PIVOT * it->gram[j * ANDERSON_MOST + j])) {
+            m = j;
+            break;
+        }
+        d[j] = dj;
+        for (int r = j + 1; r < m; ++r) {
+            double v = it->gram[r * ANDERSON_MOST + j];
+            for (int k = 0; k < j; ++k) v -= L[r][k] * L[j][k] * d[k];
+            L[r][j] = v / dj;
+        }
+    }
+    for (int j = 0; j < m; ++j)
+        for (int k = 0; k < j; ++k) y[j] -= L[j][k] * y[k];
+    for (int j = m - 1; j >= 0; --j) {
+        gamma[j] = y[j] / d[j];
+        for (int k = j + 1; k < m; ++k) gamma[j] -= L[k][j] * gamma[k];
+    }
+    for (int j = 0; j < m; ++j)
+        if (!(fabs(gamma[j]) <= SECANT_LARGEST)) return 0;
+    return m;
+}
+
 static double secant_step(struct femp_iteration *it) {
     int size = it->size, n = it->n_disp;
     double *w = it->w, *f_last = it->f_last, *g_last = it->g_last;
     const double *corr = it->corr;
-    double biggest = femp_update(size, n, corr, w), num = 0.0, den = 0.0;
+    double biggest = femp_update(size, n, corr, w), gamma[ANDERSON_MOST];
     if (biggest < 0.0) return biggest;
-    for (int i = 0; i < n; ++i) {
-        double df = -corr[i] - f_last[i];
-        num += df * -corr[i];
-        den += df * df;
+    int m = 0;
+    if (it->has_last) {
+        anderson_push(it, corr, w);
+        m = anderson_gamma(it, corr, gamma);
+    } else {
+        it->kept = 0;
     }
-    double gamma = it->has_last && den > 0.0 ? num / den : 0.0;
-    if (!(fabs(gamma) <= SECANT_LARGEST)) gamma = 0.0;
-    for (int i = 0; i < size; ++i) {
-        double g = w[i];
-        if (i < n) f_last[i] = -corr[i];
-        if (gamma != 0.0) w[i] = g - gamma * (g - g_last[i]);
-        g_last[i] = g;
+    for (int i = 0; i < n; ++i) f_last[i] = -corr[i];
+    for (int i = 0; i < size; ++i) g_last[i] = w[i];
+    for (int j = 0; j < m; ++j) {
+        const double *dg = it->dg + j * size;
+        for (int i = 0; i < size; ++i) w[i] -= gamma[j] * dg[i];
     }
     it->has_last = 1;
     return biggest;

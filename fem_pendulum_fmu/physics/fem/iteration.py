@@ -9,10 +9,11 @@ factorisation), so that an iteration is one call of five arguments. The
 kernel makes the same operations in the same order as the separate calls
 (the results are the same bit for bit, tests/test_fem_residual.py), then
 the secant step: from a Jacobian's second iteration in a solve, the updated
-iterate is combined with the last one (Anderson acceleration of depth 1;
-elastic_kernel.c, secant_step). The held Jacobian's iterations contract
-linearly; on the rubber scene, whose large deformation the held Jacobian
-follows least, the step took 20 % fewer of them (docs/fem.md, change 16).
+iterate is combined with the last ones (Anderson acceleration of depth
+ANDERSON_DEPTH; elastic_kernel.c, secant_step). The held Jacobian's
+iterations contract linearly; on the rubber scene, whose large deformation
+the held Jacobian follows least, depth 1 took 20 % fewer of them and depth 2
+another 8 % (docs/fem.md, changes 16 and 21).
 """
 
 from __future__ import annotations
@@ -26,6 +27,9 @@ from .lu import HeldFactor
 from .residual import SplitResidual
 
 _I, _D, _P = ctypes.c_int, ctypes.c_double, ctypes.c_void_p
+ANDERSON_MOST = 4  # elastic_kernel.c's bound on the depth, the stride of its gram matrix
+# past differences the Anderson step combines: 8 % fewer rubber iterations than 1, 3 no better (docs/fem.md, change 21)
+ANDERSON_DEPTH = 2
 
 
 class _Csr(ctypes.Structure):
@@ -49,7 +53,8 @@ class _Iteration(ctypes.Structure):
     _fields_ += [("mass", _Csr), ("hinge", _Csr), ("torque", _Csr), ("constant", _P), ("wv", _P)]
     _fields_ += [("inertia", _D), ("half_torque", _D), ("lu", _Factors), ("nturn", _I), ("ix", _P), ("iy", _P)]
     _fields_ += [("res", _P), ("moved", _P), ("turned", _P), ("corr", _P), ("w", _P), ("contact", _P)]
-    _fields_ += [("f_last", _P), ("g_last", _P), ("has_last", _I)]
+    _fields_ += [("f_last", _P), ("g_last", _P), ("has_last", _I), ("depth", _I), ("kept", _I)]
+    _fields_ += [("df", _P), ("dg", _P), ("gram", _P)]
 
 
 class FusedIteration:
@@ -85,6 +90,11 @@ class FusedIteration:
         # the secant step's memory of the last iteration (elastic_kernel.c, secant_step)
         self._last = (np.zeros(it.n_disp), np.zeros(it.size))
         it.f_last, it.g_last = (a.ctypes.data for a in self._last)
+        # the differences the Anderson step combines and their inner products (secant_step)
+        depth = ANDERSON_DEPTH
+        self._history = (np.zeros(depth * it.n_disp), np.zeros(depth * it.size), np.zeros(ANDERSON_MOST**2))
+        it.df, it.dg, it.gram = (a.ctypes.data for a in self._history)
+        it.depth = depth
         self._ref = ctypes.byref(it)
         self._factor_args: tuple = ()
         self._turn = (0, 1.0, 0.0)  # femp_iterate's turn, cos, sin
@@ -104,5 +114,5 @@ class FusedIteration:
     def iterate(self, contact: int) -> float:
         """contact: 1 if the residual vector holds the contact term, 0 if none acts, 2 to make the compiled
         rigid-wall term in the call (SplitResidual.fused_contact). From a solve's second iteration with
-        a Jacobian on, the updated iterate is combined with the last one by the secant step."""
+        a Jacobian on, the updated iterate is combined with the last ones by the secant step."""
         return float(self._lib.femp_iterate(self._ref, contact, *self._turn))
