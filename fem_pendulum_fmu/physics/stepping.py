@@ -207,27 +207,25 @@ def advance(
         remaining = t_end - t
         gap, rate = model.gap_and_rate(x)
         min_gap = min(min_gap, gap)
-        t_contact, d_max = model.contact_scales(x)
-        n_contact = control.contact_steps(t_contact)
-        dt_contact, pen_tol = t_contact / n_contact, d_max / n_contact
+        view = _ContactView(model, x, control)
         dt = min(control.max_step, dt_cap)
         held = False
-        if contact.hold > HELD_CONTACTS * t_contact:
+        if contact.hold > 0.0 and contact.hold > HELD_CONTACTS * view.t_contact:
             if math.isnan(load):
                 load = _load_force(model, profile.largest(t - t_start, t_end - t_start))
             held = contact.force_now <= HELD_FORCE * load
         if held:
-            dt_contact = math.inf  # free-flight steps, and no onset to locate
+            view.hold()  # free-flight steps, and no onset to locate
         elif gap < 0.0:
-            dt = min(dt, dt_contact)
-        elif rate < 0.0:
-            t_hit = (gap + pen_tol) / -rate
-            dt = min(dt, max(t_hit, dt_contact))
+            dt = min(dt, view.dt_contact)
+        elif rate < 0.0 and gap / -rate < dt:  # t_hit >= gap / -rate: a farther wall cannot shorten the step
+            t_hit = (gap + view.pen_tol) / -rate
+            dt = min(dt, max(t_hit, view.dt_contact))
         dt = max(dt, control.min_step)
         if remaining - dt < control.min_step:
             dt = remaining
         # named first: unpacked in place, mypy would solve the step's state type as X | None
-        onset = _step_locating_onset(model, x, dt, _StepTorque(profile, t - t_start), gap, pen_tol, dt_contact, control)
+        onset = _step_locating_onset(model, x, dt, _StepTorque(profile, t - t_start), gap, view, control)
         x_new, dt, fails = onset
         rejected += fails
         if x_new is None:
@@ -247,6 +245,43 @@ def advance(
         dt_cap = min(control.max_step, 2.0 * dt_cap)
     min_gap = min(min_gap, model.gap_and_rate(x)[0])
     return AdvanceResult(x, substeps, rejected, min_gap, contact, t if t < t_end else None)
+
+
+class _ContactView:
+    """The contact scales of a state as step control uses them (duration t_contact, steps n_contact, step
+    dt_contact = t_contact / n_contact, the onset's penetration tolerance pen_tol = d_max / n_contact),
+    asked of the model only when a step needs them: far from the wall, in free flight, none does, and
+    they cost as much as the rest of a free-flight step's contact geometry (docs/fem.md, change 22)."""
+
+    __slots__ = ("_model", "_x", "_control", "_scales")
+
+    def __init__(self, model: Steppable[X], x: X, control: StepControl):
+        self._model, self._x, self._control = model, x, control
+        self._scales: tuple[float, float, float] | None = None  # t_contact, dt_contact, pen_tol
+
+    def _get(self) -> tuple[float, float, float]:
+        if self._scales is None:
+            t_contact, d_max = self._model.contact_scales(self._x)
+            n_contact = self._control.contact_steps(t_contact)
+            self._scales = (t_contact, t_contact / n_contact, d_max / n_contact)
+        return self._scales
+
+    @property
+    def t_contact(self) -> float:
+        return self._get()[0]
+
+    @property
+    def dt_contact(self) -> float:
+        return self._get()[1]
+
+    @property
+    def pen_tol(self) -> float:
+        return self._get()[2]
+
+    def hold(self) -> None:
+        """A held contact: free-flight steps, and no onset to locate (an infinite contact step)."""
+        t_contact, _, pen_tol = self._get()
+        self._scales = (t_contact, math.inf, pen_tol)
 
 
 class _StepTorque:
@@ -335,8 +370,7 @@ def _step_locating_onset(
     dt: float,
     torque: _StepTorque,
     gap0: float,
-    pen_tol: float,
-    dt_contact: float,
+    view: _ContactView,
     control: StepControl,
 ) -> tuple[X | None, float, int]:
     """Take one step; if it plunges from free flight deeper than pen_tol, re-aim it at the onset.
@@ -346,10 +380,13 @@ def _step_locating_onset(
     x_new = model.step(x, dt, torque.over(dt))
     if x_new is None:
         return None, dt, 1
-    if gap0 < 0.0 or dt <= dt_contact:
+    if gap0 < 0.0:
         return x_new, dt, 0
     g_hi, _ = model.gap_and_rate(x_new)
-    if g_hi >= -pen_tol:
+    if g_hi >= 0.0:  # taken whatever the scales (pen_tol >= 0): they are not asked for
+        return x_new, dt, 0
+    pen_tol, dt_contact = view.pen_tol, view.dt_contact
+    if dt <= dt_contact or g_hi >= -pen_tol:
         return x_new, dt, 0
     lo, g_lo, x_lo = 0.0, gap0, None
     hi = dt
