@@ -1,5 +1,5 @@
 """Compiled inner loops (fem/elastic_kernel.c, fem/rigid_contact_kernel.c, fem/start_iterate_kernel.c,
-reduced/reduced_kernel.c): built once per machine, cached.
+fem/mass_moments_kernel.c, reduced/reduced_kernel.c): built once per machine, cached.
 
 At the FE model's size (300-700 unknowns) a residual is a few hundred
 thousand floating-point operations, which NGSolve's integrators and numpy
@@ -35,6 +35,7 @@ SOURCES = tuple(
         "fem/elastic_kernel.c",
         "fem/rigid_contact_kernel.c",
         "fem/start_iterate_kernel.c",
+        "fem/mass_moments_kernel.c",
         "reduced/reduced_kernel.c",
     )
 )
@@ -62,6 +63,7 @@ SIGNATURES = {
     "femp_rigid_contact_resultant": (_P, _P, _P, _P),
     "femp_misses_record": (_I, _I, _P, _I, _P, _I, _I, _D, _D),
     "femp_misses_predict": (_I, _I, _P, _I, _I, _D, _D),
+    "femp_mass_moments": (_I, _P, _P, _P, _P, _P, _P),
     "femp_reduced_strain_energy": (_P, _P),
     "femp_reduced_strain_gradient": (_P, _P, _P),
     "femp_reduced_strain_hessian": (_P, _P, _P),

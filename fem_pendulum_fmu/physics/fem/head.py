@@ -66,6 +66,7 @@ class HeadBoundary:
         self._box = Box.of(space.scene.block)
         # (u, positions, signed distances to the undeformed block) of the last two u asked about
         self._distances: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._velocities: tuple[np.ndarray | None, np.ndarray] = (None, np.zeros((0, 2)))  # (v, values) of the last v
 
     @property
     def trace(self) -> scipy.sparse.csr_matrix:
@@ -78,6 +79,13 @@ class HeadBoundary:
     def values(self, w: np.ndarray) -> np.ndarray:
         """A displacement (or velocity) field's values at the points, (P, 2)."""
         return self._trace_of(w).reshape(2, -1).T
+
+    def velocities(self, v: np.ndarray) -> np.ndarray:
+        """The velocity field v's values at the points, (P, 2), kept for the last v asked about (known by
+        identity): a step's end state is asked for its closest point's rate, then for its reach."""
+        if self._velocities[0] is not v:
+            self._velocities = (v, self.values(v))
+        return self._velocities[1]
 
     def distances(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Positions of the points at displacement u and their signed distances to the undeformed block
@@ -94,7 +102,7 @@ class HeadBoundary:
     def reachable(self, xs: FemState, dt: float) -> np.ndarray:
         """Head elements (local indices) whose points could reach the block during a step of dt from xs."""
         dist = self.distances(xs.u)[1]
-        speed = np.hypot(*self.values(xs.v).T)
+        speed = np.hypot(*self.velocities(xs.v).T)
         reach = 3.0 * float(np.max(speed)) * dt + 1e-4
         return np.unique(self.point_element[dist < reach])
 
@@ -132,7 +140,7 @@ class HeadBoundary:
             p, dist = self.distances(xs.u)
         i = int(np.argmin(dist))
         nx, ny = self._box.normal(float(p[i, 0]), float(p[i, 1]))
-        vel = self.values(xs.v)[i]
+        vel = self.velocities(xs.v)[i]
         result = ClosestPoint(p, dist, i, (nx, ny), float(nx * vel[0] + ny * vel[1]))
         self._closest = (xs, result)
         return result

@@ -20,6 +20,7 @@ from ..protocol import BodyField, Outputs
 from ..sparse import MatVec, scipy_matrix
 from . import contact_law
 from .head import HeadBoundary
+from .mass_moments import BlockMass
 from .rigid_contact import RigidContactKernel
 from .space import FemSpace, FemState, StepInputs
 from .wall import CLEAR_OF_FACE, WallContact
@@ -61,6 +62,8 @@ class FemOutputs:
         self.mass_p = scipy_matrix(BilinearForm(rho * h * InnerProduct(uu, vv) * dxp).Assemble().mat)
         self.cross = scipy_matrix(BilinearForm(rho * h * (uu[0] * vv[1] - uu[1] * vv[0]) * dxp).Assemble().mat)
         self._mass_of, self._mass_p_of, self._cross_of = MatVec(self.mass), MatVec(self.mass_p), MatVec(self.cross)
+        # the same forms in one pass over the scalar mass, where the matrices have its block form (else None)
+        self._kinetic_mass, self._rotation_mass = BlockMass.of(self.mass), BlockMass.of(self.mass_p, self.cross)
         self.l_pos = LinearForm(rho * h * InnerProduct(space.pos, vv) * dxp).Assemble().vec.FV().NumPy().copy()
         self.l_rot = LinearForm(rho * h * (x * vv[1] - y * vv[0]) * dxp).Assemble().vec.FV().NumPy().copy()
         self.pot0 = sum(Integrate(mat.rho * h * g * y, mesh, definedon=mesh.Materials(r)) for r, mat in space.bodies)
@@ -125,10 +128,12 @@ class FemOutputs:
     def _rotation(self, u: np.ndarray, v: np.ndarray) -> tuple[float, float]:
         """Best-fit rigid rotation of the displacement, and angular velocity about the pivot."""
         theta = self.rotation_angle(u)
-        Cv = self._cross_of(v)
-        Mu = self._mass_p_of(u)
-        ang_mom = float(self.l_rot @ v) - float(u @ Cv)  # u @ (cross v) = -int rho h (u x v): rows are test functions
-        inertia = self.inertia0 + 2.0 * float(self.l_pos @ u) + float(u @ Mu)
+        if self._rotation_mass is not None:
+            uMu, uCv = self._rotation_mass.square_and_cross(u, v)
+        else:
+            uMu, uCv = float(u @ self._mass_p_of(u)), float(u @ self._cross_of(v))
+        ang_mom = float(self.l_rot @ v) - uCv  # u @ (cross v) = -int rho h (u x v): rows are test functions
+        inertia = self.inertia0 + 2.0 * float(self.l_pos @ u) + uMu
         return theta, ang_mom / inertia
 
     def _contact(self, s: FemState, light: bool, energy: bool = True) -> tuple[float, float]:
@@ -232,7 +237,8 @@ class FemOutputs:
         mesh, u, v = space.mesh, s.u, s.v
         c_force = 0.0
         if s.energies is None:
-            kinetic = 0.5 * float(v @ self._mass_of(v))
+            mass = self._kinetic_mass
+            kinetic = 0.5 * (mass.square(v) if mass is not None else float(v @ self._mass_of(v)))
             potential = self.pot0 + float(self.l_pot @ u)
             strain = self._strain(u)
             c_energy, c_force = self._contact(s, light)
