@@ -718,7 +718,7 @@ def main(argv: list[str] | None = None) -> None:
                 print(
                     f"{r['scene']:16s} {r['curve']:8s} max theta error to {m.get('early_end', math.nan):.3f} s "
                     f"{m.get('theta_max_early', math.nan):.2e} rad "
-                    f"(bound {r['theta_bound']:.0e}), energy error {m.get('energy', math.nan):.1e}, "
+                    f"(bound {r['theta_bound']:.2g}), energy error {m.get('energy', math.nan):.1e}, "
                     f"wall/sim {r['wall_per_sim'][0]:.2f} s"
                 )
             problems = check_quick(rows)

@@ -62,7 +62,7 @@ def scene_table(rows: list[dict], scene: str, ref: dict | None) -> list[str]:
         m = r["metrics"] or {}
         w = r["wall_per_sim"]
         name = f"**{r['label']}**" if is_default(r) else r["label"]
-        failed = f" (failed: {r['failed'][:60]})" if r["failed"] else ""
+        failed = f" (failed: {r['failed']})" if r["failed"] else ""
         out.append(
             f"| {r['curve']} | {name}{failed} | {med(w):.3g} ({min(w):.3g}-{max(w):.3g}) | {med(r['cpu_per_sim']):.3g} "
             f"| {r['substeps']} | {fmt(m.get('theta_max_early'), '.2e')} | {fmt(m.get('theta_max'), '.2e')} "
