@@ -254,11 +254,12 @@ class HeldFactor:
         self._lu = lu
         if self._lib is None:
             return
-        L, U = lu.L.tocsc(), lu.U.tocsc()
+        # the kernel's solve reads strict factors (its own are): SuperLU's unit diagonal of L and U's diagonal dropped
+        L, U = sp.tril(lu.L, -1).tocsc(), sp.triu(lu.U, 1).tocsc()
         # the arrays the kernel reads, kept alive with the addresses handed to it
         self._keep: tuple[np.ndarray, ...] = (_int32(lu.perm_r), _int32(lu.perm_c), _int32(L.indptr))
         self._keep += (_int32(L.indices), L.data.copy(), _int32(U.indptr), _int32(U.indices), U.data.copy())
-        self._keep += (U.diagonal().copy(), self._scale)
+        self._keep += (lu.U.diagonal().copy(), self._scale)
         addresses = [a.ctypes.data for a in self._keep]
         self.kernel_args = (len(self.free), self.free.ctypes.data, addresses[-1], *addresses[:-1])
         self.work_at = self._work.ctypes.data
