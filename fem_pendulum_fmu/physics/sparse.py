@@ -20,6 +20,13 @@ def scipy_matrix(mat: BaseMatrix) -> sp.csr_matrix:
     return int32_indices(sp.csr_matrix(coo, shape=(mat.height, mat.width)))
 
 
+def nonzero_entries(csr: sp.csr_matrix) -> sp.csr_matrix:
+    """csr without its stored zeros (int32 indices kept): a product over it adds the same nonzero terms in the
+    same order, so the same bits for finite vectors."""
+    csr.eliminate_zeros()
+    return int32_indices(csr)
+
+
 def int32_indices(csr: sp.csr_matrix) -> sp.csr_matrix:
     """csr with int32 index arrays, as the compiled kernels (and MatVec) take them."""
     csr.indptr, csr.indices = csr.indptr.astype(np.int32), csr.indices.astype(np.int32)
