@@ -21,16 +21,6 @@ from fem_pendulum_fmu.physics.sparse import scipy_matrix
 RESIDUAL_RTOL = 1e-8
 
 
-@pytest.fixture(params=["compiled", "numpy"])
-def kernels(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
-    """Both forms of the residual: the compiled kernel (where a C compiler is found) and numpy."""
-    if request.param == "numpy":
-        monkeypatch.setattr(native, "kernels", lambda: None)
-    elif native.kernels() is None:
-        pytest.fail("no C compiler: the compiled kernel cannot be tested on this machine")
-    return str(request.param)
-
-
 def _residuals(model: FemModel, torque: float) -> tuple[np.ndarray, np.ndarray]:
     """(full form's Apply, split residual) at the current state's next step, with a perturbed iterate."""
     xs = model._state

@@ -7,19 +7,9 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fem_pendulum_fmu.physics import native
 from fem_pendulum_fmu.physics.fem.mass_moments import BlockMass
 from fem_pendulum_fmu.physics.fem.model import FemModel
 from fem_pendulum_fmu.physics.scene import stiff
-
-
-@pytest.fixture(params=["compiled", "numpy"])
-def kernels(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
-    if request.param == "numpy":
-        monkeypatch.setattr(native, "kernels", lambda: None)
-    elif native.kernels() is None:
-        pytest.fail("no compiled kernels on this machine (a C compiler is a test requirement)")
-    return str(request.param)
 
 
 @pytest.mark.parametrize("wall", ["rigid", "deformable"])
