@@ -61,11 +61,9 @@ class LinearTerms:
         torque_rest = LinearForm(-InnerProduct(torque_weight * N, du) * ngs.ds("hinge"))
         torque_grad = BilinearForm(-InnerProduct(torque_weight * (Cof(Grad(u).Trace()) * N), du) * ngs.ds("hinge"))
         self._lib = native.kernels()
-        # without the entries NGSolve stores as zeros: the mass's x-y blocks (half its 107k entries on the 0.005 m
-        # mesh), read at every iteration for nothing (docs/fem.md, change 25)
-        self.mass, self.hinge, self.torque_grad = (
-            nonzero_entries(scipy_matrix(form.Assemble().mat)) for form in (mass, hinge, torque_grad)
-        )
+        # without NGSolve's stored zeros, half the mass's entries, read every iteration (docs/fem.md, change 25)
+        forms = (mass, hinge, torque_grad)
+        self.mass, self.hinge, self.torque_grad = (nonzero_entries(scipy_matrix(f.Assemble().mat)) for f in forms)
         self._args = [
             (m.shape[0], m.indptr.ctypes.data, m.indices.ctypes.data, m.data.ctypes.data)
             for m in (self.mass, self.hinge, self.torque_grad)
