@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from contextlib import nullcontext
+from functools import partial
 
 import ngsolve as ngs
 import numpy as np
@@ -52,6 +53,7 @@ from .rigid_contact import compiled_contact
 from .schemes import newmark_start_acceleration, scheme_for
 from .seed_stepping import Stepper
 from .space import FIDELITY, FemState, fem_space, step_inputs
+from .split_jacobian import SplitJacobian
 from .start_iterate import predicted_miss, recorded
 from .step_load import StepLoad
 from .step_loader import StepLoader
@@ -94,7 +96,7 @@ class FemModel:
         residual = split or self.form.form.Apply
         inertia = None if split is None else (split.linear.mass, split.linear.inertia_coefficient)
         # the compiled Jacobian where the contact is the rigid wall's (or none); the meshed wall's is NGSolve's
-        tangent = None if split is None or self.form.wall_residual is not None else split.jacobian
+        tangent = None if split is None or self.form.wall_residual is not None else partial(SplitJacobian, split)
         args = (self.loader.load, turn, inertia, tangent, self.form.linearise)
         self.newton = HeldJacobianNewton(self.form.form, residual, self.space, *args)
         self.time = 0.0

@@ -46,7 +46,7 @@ from .step_load import JacobianPoint, StepLoad
 # least 1 / SLOWEST_CONTRACTION and would converge within NEWTON_MAX_IT iterations. Rubber, 2 s (four
 # impacts): 2x and 20 iterations took 701 re-assemblies from u0 + dt v0 and 349 (28369 iterations) from
 # FemModel._drift_guess; 1.4x and 30 take 190 (33687 iterations): 6 % less time (docs/fem.md). With the Jacobian
-# and its factors compiled (residual.SplitJacobian, lu.Symbolic) a new one costs about 1.5 ms, nine
+# and its factors compiled (split_jacobian.SplitJacobian, lu.Symbolic) a new one costs about 1.5 ms, nine
 # iterations; refreshing it too when the rate predicted more than 12 or 15 iterations saved 13 % of them for
 # twice the Jacobians, no faster (docs/fem.md, "Jacobians and factors in the kernel").
 NEWTON_MAX_IT = 30
@@ -89,7 +89,7 @@ class NewtonCounts:
 # Jacobian of a new step size is the held one with the inertia term rescaled; None: re-assembled
 Inertia = tuple[sp.csr_matrix, Callable[[float], float]]
 # tangent(free unknowns, pattern's CSC indptr, indices) -> jacobian(w): the step form's Jacobian at w as the
-# entries on that pattern (residual.SplitJacobian); None: NGSolve assembles the form's linearisation
+# entries on that pattern (split_jacobian.SplitJacobian); None: NGSolve assembles the form's linearisation
 Tangent = Callable[[np.ndarray, np.ndarray, np.ndarray], Callable[[ngs.BaseVector], np.ndarray]]
 # residual(w, res): the step form's residual at w into res (ngsolve vectors)
 Residual = Callable[[ngs.BaseVector, ngs.BaseVector], None]
