@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from fem_pendulum_fmu.physics.contact_time import contact_time_scale
+from fem_pendulum_fmu.physics.contact_time import body_stiffness, contact_time_scale
 
 
 def _bisected(gaps: np.ndarray, weights: np.ndarray, m_eff: float, rate: float, k: float) -> tuple[float, float]:
@@ -45,3 +45,24 @@ def test_piecewise_solution_equals_bisection():
 
 def test_nothing_approaching_has_no_contact_in_view():
     assert contact_time_scale(np.array([0.01, 0.02]), np.array([1e-3, 1e-3]), 0.5, 0.3, 2e10) == (math.inf, 0.0)
+
+
+def test_a_body_as_stiff_as_the_penalty_lengthens_the_contact_by_root_two():
+    """The body's stiffness in series with the penalty's (k w for one point): equal stiffnesses halve it, so
+    the contact lasts sqrt(2) times as long; the depth is the penalty's, which the onset is located by."""
+    args = (np.array([0.002]), np.array([1e-3]), 0.5, -1.0, 2e10)
+    alone, depth = contact_time_scale(*args)
+    duration, depth_in_series = contact_time_scale(*args, k_body=2e10 * 1e-3)
+    assert duration == pytest.approx(math.sqrt(2.0) * alone, rel=1e-14)
+    assert depth_in_series == depth
+
+
+def test_a_soft_body_sets_the_duration_of_its_contact():
+    """Rubber (E 1 MPa, nu 0.45, 1 cm) against one point of the default penalty (5e10 N/m^2 times a weight of
+    1 mm): the body is 1/4000 of it, so the duration is sqrt(1 + 1/4000), 1 + 1.2e-4, times the body's own
+    pi sqrt(m / k_body)."""
+    k_body = body_stiffness(1e6, 0.45, 0.01)
+    assert k_body == pytest.approx(1e4 / (1.0 - 0.45**2), rel=1e-14)
+    duration, _ = contact_time_scale(np.array([0.0]), np.array([1e-3]), 0.3, -1.0, 5e10, k_body=k_body)
+    assert duration == pytest.approx(math.pi * math.sqrt(0.3 / k_body) * math.sqrt(1.0 + k_body / 5e7), rel=1e-14)
+    assert duration / (math.pi * math.sqrt(0.3 / k_body)) - 1.0 < 1.3e-4

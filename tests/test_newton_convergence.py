@@ -16,11 +16,11 @@ def test_a_first_correction_must_itself_be_under_the_tolerance() -> None:
 
 def test_a_fast_contraction_credits_the_correction_with_its_rate() -> None:
     """At a contraction of 1e-3 the error left is about 1e-3 of the correction, taken as RATE_FLOOR of it: a
-    correction of 30 tol converges (it is taken as 0.9 tol), one of 35 tol does not; at a contraction of
+    correction of 99 tol converges (it is taken as 0.99 tol), one of 101 tol does not; at a contraction of
     0.1, above the floor, one of 9 tol is taken as its rate times itself over 0.9, 1.0 tol."""
-    assert RATE_FLOOR == 0.03
-    assert converged(30.0, 30e3, 1.0)
-    assert not converged(35.0, 35e3, 1.0)
+    assert RATE_FLOOR == 0.01
+    assert converged(99.0, 99e3, 1.0)
+    assert not converged(101.0, 101e3, 1.0)
     assert converged(8.9, 89.0, 1.0)
     assert not converged(9.1, 91.0, 1.0)
 

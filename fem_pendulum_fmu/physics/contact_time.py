@@ -52,8 +52,16 @@ def effective_mass(inertia: float, arm: float, depth: float) -> float:
     return inertia / max(abs(arm), ARM_FLOOR * depth) ** 2
 
 
+def body_stiffness(E: float, nu: float, thickness: float) -> float:
+    """E h / (1 - nu^2) (N/m): the order of the stiffness a plane-stress body of thickness h offers a load
+    pressed on its face, which acts in series with the penalty. Steel's is 40 times the default penalty's
+    (its contacts last 1 % longer for it); rubber's is 1/5000 of it, and its contacts last about ten times
+    the penalty's estimate (docs/fem.md, change 26)."""
+    return E * thickness / (1.0 - nu * nu)
+
+
 def contact_time_scale(
-    gaps: np.ndarray, weights: np.ndarray, m_eff: float, rate: float, k_line: float
+    gaps: np.ndarray, weights: np.ndarray, m_eff: float, rate: float, k_line: float, k_body: float = math.inf
 ) -> tuple[float, float]:
     """(duration, largest depth) of the contact now in view, from the penalty law on sampled points.
 
@@ -61,7 +69,8 @@ def contact_time_scale(
     point: E(delta) = k_line/2 * sum_i w_i max(delta - (g_i - g_min), 0)^2.
     delta_max balances the normal energy available (contact energy now plus
     the approach's kinetic energy with the effective mass), and the duration is
-    pi sqrt(m_eff / K_sec) with K_sec = 2 E(delta_max) / delta_max^2."""
+    pi sqrt(m_eff / K) with K_sec = 2 E(delta_max) / delta_max^2 in series with k_body
+    (body_stiffness; inf: a rigid body), 1 / K = 1 / K_sec + 1 / k_body."""
     g_min = float(np.min(gaps))
     pen = np.maximum(-gaps, 0.0)
     e_now = 0.5 * k_line * float(weights @ (pen * pen))
@@ -72,6 +81,8 @@ def contact_time_scale(
     if delta > 1.0:
         return math.inf, 0.0
     k_sec = 2.0 * e_avail / (delta * delta)
+    if k_body < math.inf:
+        k_sec = 1.0 / (1.0 / k_sec + 1.0 / k_body)
     return math.pi * math.sqrt(m_eff / k_sec), delta
 
 

@@ -21,6 +21,14 @@ The rule, in words (it is what `solver.max_step` and `solver.tolerance` mean):
   model whose contact needs more keeps the phase rule throughout
   (`StepControl.timing_rule` False: the reduced model on soft bodies, the FE
   model against the meshed wall; their reasons are where they choose it);
+* with `StepControl.even_contact_steps` (the FE model, whose factorised
+  Jacobian serves one step size: fem/newton.py), the steps in contact
+  divide the time left in the advance equally, and a step keeps the last
+  one's size while that is no longer than the contact's step and at least
+  `STEP_KEPT` of it. The contact's step, re-estimated at every step from
+  the vibrating body's closest point, jumps by 20 to 50 % from one step to
+  the next on the rubber scene; taken as it came, nearly every step of a
+  soft contact refactorised the Jacobian (docs/fem.md, change 26);
 * a held contact takes free-flight steps again, with no onset location: one
   whose hold exceeds `HELD_CONTACTS` estimated contact durations and whose
   force is no more than `HELD_FORCE` times what the torque and gravity can
@@ -104,6 +112,7 @@ class Steppable(Protocol[X]):
 MIN_STEPS_PER_CONTACT = 16  # the fewest steps per contact duration (the module's docstring says why)
 HELD_CONTACTS = 3.0  # a contact held this many estimated contact durations is held, not an impact
 HELD_FORCE = 10.0  # ... if its force is below this many times the load's (the resting heads vibrate to 6.6 times)
+STEP_KEPT = 0.8  # even contact steps: a size is kept while no longer than the contact's step and this share of it
 HOLD_DECAY = 0.2  # out of contact the hold shrinks at this share of the time: an impact's hold is gone after a flight
 # of five contact durations; a head that chatters on the wall (in contact a sixth of the time or more) keeps it
 
@@ -116,12 +125,19 @@ class StepControl:
     max_onset_iterations: int = 8
     max_substeps: int = 0  # accepted steps allowed per advance; 0 = no limit
     timing_rule: bool = True  # steps per contact from the rebound's delay; False: the phase rule's throughout
+    even_contact_steps: bool = False  # in contact, equal steps kept from step to step (the module's docstring)
 
     @classmethod
-    def for_scene(cls, scene: Scene, timing_rule: bool = True) -> StepControl:
+    def for_scene(cls, scene: Scene, timing_rule: bool = True, even_contact_steps: bool = False) -> StepControl:
         """The step control a scene's solver.* parameters describe (every fidelity uses this)."""
         solver = scene.solver
-        return cls(solver.max_step, solver.tolerance, max_substeps=solver.max_substeps, timing_rule=timing_rule)
+        return cls(
+            solver.max_step,
+            solver.tolerance,
+            max_substeps=solver.max_substeps,
+            timing_rule=timing_rule,
+            even_contact_steps=even_contact_steps,
+        )
 
     @property
     def steps_per_contact(self) -> int:
@@ -203,6 +219,7 @@ def advance(
     contact = _start_tally(model)
     load = math.nan  # what the torque and gravity can press with, asked for once a contact is held long enough
     profile, t_start = as_profile(torque), t
+    last_contact_dt = 0.0  # the size of the last step taken in contact in this advance (0: none yet)
     while t_end - t > 0.0:
         remaining = t_end - t
         gap, rate = model.gap_and_rate(x)
@@ -218,6 +235,8 @@ def advance(
             view.hold()  # free-flight steps, and no onset to locate
         elif gap < 0.0:
             dt = min(dt, view.dt_contact)
+            if control.even_contact_steps:
+                dt = _even_step(dt, remaining, last_contact_dt)
         elif rate < 0.0 and gap / -rate < dt:  # t_hit >= gap / -rate: a farther wall cannot shorten the step
             t_hit = (gap + view.pen_tol) / -rate
             dt = min(dt, max(t_hit, view.dt_contact))
@@ -236,6 +255,7 @@ def advance(
                 )
             continue
         contact.add(model, x, x_new, dt, gap)
+        last_contact_dt = dt if gap < 0.0 and not held else 0.0
         x = x_new
         t = t_end if dt >= remaining else t + dt
         substeps += 1
@@ -295,6 +315,19 @@ class _StepTorque:
 
     def over(self, dt: float) -> float:
         return self.profile.mean(self.s, self.s + dt)
+
+
+def _even_step(longest: float, remaining: float, last: float) -> float:
+    """A step of StepControl.even_contact_steps: the last one's size if it is no longer than `longest` and at
+    least STEP_KEPT of it, and divides what remains (to round-off); else the remaining time divided into
+    equal steps no longer than `longest`, or than `last` where that is kept."""
+    if STEP_KEPT * longest <= last <= longest:
+        count = remaining / last
+        if abs(count - round(count)) <= 1e-9 * count:
+            return last
+        longest = last
+    count = math.ceil(remaining / longest * (1.0 - 1e-12))
+    return remaining / count if count > 1 else remaining
 
 
 def check_substeps(control: StepControl, substeps: int, t: float, t_end: float) -> None:
