@@ -80,5 +80,5 @@ def test_contact_steps_are_even_and_never_longer_than_the_contacts_step(preset: 
     taken = _contact_steps(preset, t_end)
     assert len(taken) >= 16
     assert all(dt <= own * (1.0 + 1e-9) for _, dt, own in taken)
-    same = sum(a[0] == b[0] and a[1] == b[1] for a, b in zip(taken, taken[1:]))
+    same = sum(a[0] == b[0] and a[1] == b[1] for a, b in zip(taken, taken[1:], strict=False))
     assert same >= len(taken) // 2

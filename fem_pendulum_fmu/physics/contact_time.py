@@ -8,8 +8,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .scene import Scene
 
 ARM_FLOOR = 1e-3  # share of the head centre's depth below which a contact normal's moment arm is not trusted
 
@@ -58,6 +62,13 @@ def body_stiffness(E: float, nu: float, thickness: float) -> float:
     (its contacts last 1 % longer for it); rubber's is 1/5000 of it, and its contacts last about ten times
     the penalty's estimate (docs/fem.md, change 26)."""
     return E * thickness / (1.0 - nu * nu)
+
+
+def scene_body_stiffness(scene: Scene) -> float:
+    """The pendulum's body_stiffness, in series with the meshed wall's where there is one."""
+    h, p, w = scene.pendulum.thickness, scene.pendulum, scene.wall
+    head = body_stiffness(p.E, p.nu, h)
+    return head if w.kind == "rigid" else 1.0 / (1.0 / head + 1.0 / body_stiffness(w.E, w.nu, h))
 
 
 def contact_time_scale(

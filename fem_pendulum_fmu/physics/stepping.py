@@ -81,7 +81,7 @@ from typing import TYPE_CHECKING, Generic, Protocol, TypeVar
 import numpy as np
 
 from .mass_properties import gravity_moment
-from .protocol import Outputs, StepFailed, StopAt, check_advance_args
+from .protocol import Outputs, StepFailed, StopAt
 from .torque import Torque, TorqueProfile, as_profile
 
 if TYPE_CHECKING:
@@ -225,24 +225,15 @@ def advance(
         gap, rate = model.gap_and_rate(x)
         min_gap = min(min_gap, gap)
         view = _ContactView(model, x, control)
-        dt = min(control.max_step, dt_cap)
         held = False
         if contact.hold > 0.0 and contact.hold > HELD_CONTACTS * view.t_contact:
             if math.isnan(load):
                 load = _load_force(model, profile.largest(t - t_start, t_end - t_start))
             held = contact.force_now <= HELD_FORCE * load
-        if held:
-            view.hold()  # free-flight steps, and no onset to locate
-        elif gap < 0.0:
-            dt = min(dt, view.dt_contact)
-            if control.even_contact_steps:
-                dt = _even_step(dt, remaining, last_contact_dt)
-        elif rate < 0.0 and gap / -rate < dt:  # t_hit >= gap / -rate: a farther wall cannot shorten the step
-            t_hit = (gap + view.pen_tol) / -rate
-            dt = min(dt, max(t_hit, view.dt_contact))
-        dt = max(dt, control.min_step)
-        if remaining - dt < control.min_step:
-            dt = remaining
+            if held:
+                view.hold()
+        longest = min(control.max_step, dt_cap)
+        dt = _step_size(view, control, (gap, rate), longest, remaining, last_contact_dt, held)
         # named first: unpacked in place, mypy would solve the step's state type as X | None
         onset = _step_locating_onset(model, x, dt, _StepTorque(profile, t - t_start), gap, view, control)
         x_new, dt, fails = onset
@@ -265,6 +256,34 @@ def advance(
         dt_cap = min(control.max_step, 2.0 * dt_cap)
     min_gap = min(min_gap, model.gap_and_rate(x)[0])
     return AdvanceResult(x, substeps, rejected, min_gap, contact, t if t < t_end else None)
+
+
+def _step_size(
+    view: _ContactView,
+    control: StepControl,
+    gap_rate: tuple[float, float],
+    longest: float,
+    remaining: float,
+    last_contact_dt: float,
+    held: bool,
+) -> float:
+    """The next step's size by the module's rules: `longest` (max_step, or less after a failed solve) in
+    free flight and in a `held` contact, the contact's step inside the wall, cut to end where
+    the gap closes on the approach; never under min_step, and the whole remainder where less would be
+    left."""
+    gap, rate = gap_rate
+    dt = longest
+    if held:
+        pass  # free-flight steps, and no onset to locate (view.hold)
+    elif gap < 0.0:
+        dt = min(dt, view.dt_contact)
+        if control.even_contact_steps:
+            dt = _even_step(dt, remaining, last_contact_dt)
+    elif rate < 0.0 and gap / -rate < dt:  # t_hit >= gap / -rate: a farther wall cannot shorten the step
+        t_hit = (gap + view.pen_tol) / -rate
+        dt = min(dt, max(t_hit, view.dt_contact))
+    dt = max(dt, control.min_step)
+    return remaining if remaining - dt < control.min_step else dt
 
 
 class _ContactView:
@@ -444,48 +463,3 @@ def _step_locating_onset(
         return x_lo, lo, fails
     dt = max(min(hi, dt_contact), control.min_step)
     return model.step(x, dt, torque.over(dt)), dt, fails
-
-
-class SteppedModel(Generic[X]):
-    """`advance` and `outputs` of the protocol for a model whose whole state is `self._x`,
-    stepped by this module (rigid and reduced; the FE model adds threads and its Jacobian).
-
-    Needs `self._x`, `self.time`, `self.control`, the `Steppable` methods and
-    `self._compute_outputs(x, t, substeps)`."""
-
-    _x: X
-    time: float
-    control: StepControl
-    _outputs: Outputs
-    last_min_gap: float
-
-    def step(self, x: X, dt: float, torque: float) -> X | None:
-        raise NotImplementedError
-
-    def gap_and_rate(self, x: X) -> tuple[float, float]:
-        raise NotImplementedError
-
-    def contact_scales(self, x: X) -> tuple[float, float]:
-        raise NotImplementedError
-
-    def contact_force(self, x: X) -> float:
-        raise NotImplementedError
-
-    def contact_impulse(self, x0: X, x1: X, dt: float) -> np.ndarray:
-        raise NotImplementedError
-
-    def _compute_outputs(self, x: X, t: float, substeps: int) -> Outputs:
-        raise NotImplementedError
-
-    def advance(self, t_end: float, torque: Torque, stop: StopAt | None = None) -> Outputs:
-        check_advance_args(self.time, t_end, torque)
-        torque = torque if isinstance(torque, TorqueProfile) else float(torque)
-        result = advance(self, self._x, self.time, float(t_end), torque, self.control, stop)
-        self._x = result.state
-        self.time = result.end_time(float(t_end))
-        self._outputs = self._compute_outputs(self._x, self.time, result.substeps)
-        self.last_min_gap = result.finish(self._outputs)
-        return self._outputs
-
-    def outputs(self) -> Outputs:
-        return self._outputs

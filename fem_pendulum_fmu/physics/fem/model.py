@@ -31,7 +31,7 @@ import ngsolve as ngs
 import numpy as np
 from ngsolve import CF, x, y
 
-from ..contact_time import body_stiffness, contact_time_scale, effective_mass
+from ..contact_time import contact_time_scale, effective_mass, scene_body_stiffness
 from ..output_rates import probe_derivatives
 from ..protocol import (
     BodyField,
@@ -80,7 +80,7 @@ class FemModel:
         # 1.2e-4 of the swing energy in an impact of 18 steps against 8.5e-5 in 31 (docs/fem.md, "Deformable wall")
         self.control = StepControl.for_scene(scene, timing_rule=scene.wall.kind == "rigid", even_contact_steps=True)
         self.space = fem_space(scene, refine_like_seed)
-        self._body_stiffness = _contact_body_stiffness(scene)
+        self._body_stiffness = scene_body_stiffness(scene)
         self.scheme = scheme_for(scene)
         # the step control of every advance, chosen once: stepping.advance, or a seed scheme's rules
         self._stepper: Stepper[FemState] = self.scheme.stepper
@@ -281,10 +281,3 @@ class FemModel:
         self.time = state.time
         self._outputs = restore_advance_summary(state, self.measures.of(self._state, self.time, 0))
         self.last_min_gap = self._outputs.min_gap
-
-
-def _contact_body_stiffness(scene: Scene) -> float:
-    """The pendulum's body_stiffness, in series with the meshed wall's where there is one."""
-    h, p, w = scene.pendulum.thickness, scene.pendulum, scene.wall
-    head = body_stiffness(p.E, p.nu, h)
-    return head if w.kind == "rigid" else 1.0 / (1.0 / head + 1.0 / body_stiffness(w.E, w.nu, h))

@@ -44,7 +44,8 @@ import numpy as np
 from ..output_rates import flow_derivatives, flow_step
 from ..protocol import BodyField, ModelState, OutputDerivatives, Outputs, restore_advance_summary
 from ..scene import Scene, refuse_deformable_wall, validate
-from ..stepping import StepControl, SteppedModel
+from ..stepped_model import SteppedModel
+from ..stepping import StepControl
 from ..torque import TorqueProfile
 from .approach import WallApproach
 from .contact import WallContact

@@ -38,7 +38,8 @@ from ..protocol import (
     restore_advance_summary,
 )
 from ..scene import Scene, refuse_deformable_wall, validate
-from ..stepping import StepControl, SteppedModel, decayed_hold, finish_advance
+from ..stepped_model import SteppedModel
+from ..stepping import StepControl, decayed_hold, finish_advance
 from ..torque import Torque, TorqueProfile
 from . import arc_contact as rigid_contact
 from .solve import Contact, StepSolver
