@@ -54,8 +54,8 @@ def test_lazy_scales_step_exactly_as_eager_ones_through_an_impact(monkeypatch: p
 
 
 def _contact_steps(preset: str, t_end: float) -> list[tuple[float, float, float]]:
-    """(time at the step's start, its size, the contact's step there) of every step the FE model takes from
-    inside the wall (gap < 0), in 1 ms advances to t_end."""
+    """(start time of the advance the step is in, its size, the contact's step there) of every step the FE
+    model takes from inside the wall (gap < 0), in 1 ms advances to t_end."""
     model = FemModel(PRESETS[preset]())
     taken, step = [], model.step
 
