@@ -45,9 +45,9 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-import fem_speed  # noqa: E402  (the seed's timing, shared with benchmarks/fem_speed.py)
-import rigid_floor  # noqa: E402  (the trivial FMU)
-from speed_vs_error import early_window, load_reference  # noqa: E402
+# fem_speed (the seed's timing), rigid_floor (the trivial FMU) and speed_vs_error (the references) are imported
+# where they are used: they import fem_pendulum_fmu, and a child process that had imported it would run the
+# FMU with that copy, not the FMU's own (its preflight now refuses a copy that differs: fmi/preflight.py)
 
 RUBBER = {"pendulum.E": 1e6, "pendulum.nu": 0.45, "pendulum.rho": 1000.0, "contact.stiffness": 5e9}
 ORDER3 = {"model.order": 3}
@@ -171,6 +171,8 @@ def run_once(fmu: Path, spec: dict) -> dict:
 
 def accuracy(series: dict, reference: str | None) -> tuple[float, float]:
     """(max |theta - theta_ref| before the reference's second impact, energy error / swing energy)."""
+    from speed_vs_error import early_window, load_reference
+
     from fem_pendulum_fmu.physics.mass_properties import swing_energy
     from fem_pendulum_fmu.physics.scene import stiff
 
@@ -200,6 +202,8 @@ def main() -> None:
         return
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
+        import rigid_floor
+
         floor = rigid_floor.build_floor(Path(tmp)) if "floor" in args.runs else None
         results = {}
         for name in args.runs:
@@ -218,6 +222,8 @@ def main() -> None:
             runs = [run_once(fmu, spec) for _ in range(args.repeat)]
             results[name] = (runs, *accuracy(runs[0]["series"], spec["reference"]))
             print(name, [round(r["cpu"], 4) for r in runs], flush=True)
+    import fem_speed
+
     seed = fem_speed.seed_cost_per_step(args.seed_steps) * 1000.0 if args.seed_steps else None
     load_after = os.getloadavg()
     print(

@@ -4,6 +4,7 @@
     python tests/host_runs.py original FMU STATE_FILE FIDELITY
     python tests/host_runs.py restored FMU STATE_FILE FIDELITY
     python tests/host_runs.py misuse FMU
+    python tests/host_runs.py foreign FMU FOLDER same|changed
 
 Each prints one JSON line: what the test compares.
 """
@@ -21,14 +22,14 @@ from typing import Any
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 
-from fem_pendulum_fmu.masters.named_slave import NamedSlave
-
 OUTPUTS = ("theta", "omega", "gap", "energy.total")
 
 
 def sequence(fmu: str, pid: str) -> dict[str, float]:
     """simulate_fmu with rigid, reduced, fem and rigid again (fmpy deletes each extraction folder),
     then the pendulum and the PID FMU side by side for 10 steps."""
+    from fem_pendulum_fmu.masters.named_slave import NamedSlave  # here: `foreign` must import its own copy
+
     ends = {}
     for k, fidelity in enumerate((2, 3, 4, 2)):
         result = simulate_fmu(fmu, stop_time=0.01, step_size=1e-3, start_values={"model.fidelity": fidelity})
@@ -122,6 +123,34 @@ def misuse(fmu: str) -> dict[str, Any]:
     return codes
 
 
+def foreign(fmu: str, folder: str, kind: str) -> dict[str, Any]:
+    """The FMU instantiated after this process imported another copy of fem_pendulum_fmu: the FMU's own
+    files copied to `folder` ("same"), or with one line added to physics/scene.py ("changed")."""
+    shipped = Path(extract(fmu)) / "resources" / "fem_pendulum_fmu"
+    copy = Path(folder) / "fem_pendulum_fmu"
+    shutil.copytree(shipped, copy)
+    shutil.rmtree(shipped.parent.parent, True)
+    if kind == "changed":
+        scene = copy / "physics" / "scene.py"
+        scene.write_text(scene.read_text() + "\nCHANGED_HERE = True\n")
+    sys.path.insert(0, folder)
+    import fem_pendulum_fmu.physics.scene  # noqa: F401  (the host's own copy, imported first)
+
+    try:
+        slave, vr, _ = instance(fmu, "foreign")
+    except Exception as exc:  # fmpy's: fmi2Instantiate returned NULL
+        return {"instantiated": False, "error": str(exc)}
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    slave.setInteger([vr["model.fidelity"]], [2])
+    slave.exitInitializationMode()
+    slave.doStep(0.0, 1e-3)
+    theta = slave.getReal([vr["theta"]])[0]
+    slave.terminate()
+    slave.freeInstance()
+    return {"instantiated": True, "theta": theta}
+
+
 if __name__ == "__main__":
-    verbs = {"sequence": sequence, "original": original, "restored": restored, "misuse": misuse}
+    verbs = {"sequence": sequence, "original": original, "restored": restored, "misuse": misuse, "foreign": foreign}
     print(json.dumps(verbs[sys.argv[1]](*sys.argv[2:])))

@@ -8,6 +8,7 @@ from __future__ import annotations
 import csv
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -135,6 +136,37 @@ def test_a_sweep_with_a_failed_sample_marks_it_and_exits_1(fmus, tmp_path):
     assert "smallest step" in run.stdout, run.stdout
     assert run.stderr.strip().splitlines()[-1].startswith("fem-pendulum sweep: incomplete: 1 of 2 samples"), run.stderr
     assert (tmp_path / "sweep" / "results.parquet").is_file()
+
+
+def other_version(fmu: Path, folder: Path) -> Path:
+    """A copy of the FMU whose shipped physics/scene.py has one line more than the installed package's."""
+    changed = folder / "OtherVersion.fmu"
+    name = "resources/fem_pendulum_fmu/physics/scene.py"
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(changed, "w", zipfile.ZIP_DEFLATED) as dst:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            dst.writestr(item, data + b"\n# another version\n" if item.filename == name else data)
+    return changed
+
+
+@pytest.mark.parametrize("command", ["run", "control", "sweep"])
+def test_an_fmu_of_another_version_than_the_installed_package_is_refused_in_one_line(fmus, tmp_path, command):
+    """The commands import fem_pendulum_fmu; an FMU built from other sources would run the installed copy
+    (fmi/preflight.py refuses it). Each command says why in one line and exits 1; the sweep marks both
+    samples with the reason (the second one too: its worker tries a fresh instance again)."""
+    fmu = str(other_version(fmus[0], tmp_path))
+    extra = {
+        "run": [],
+        "control": ["--controller", str(fmus[1])],
+        "sweep": ["--param", "pendulum.E=1e9,2e9", "--workers", "1", "--no-progress"],
+    }[command]
+    run = fem_pendulum(command, "--fmu", fmu, "--stop-time", "0.01", *extra, "--out", "out/x", cwd=tmp_path)
+    assert run.returncode == 1, run.stdout + run.stderr
+    last = run.stderr.strip().splitlines()[-1]
+    assert last.startswith(f"fem-pendulum {command}: incomplete: ") and "Traceback" not in run.stderr, run.stderr
+    said = last if command != "sweep" else run.stdout
+    assert said.count("already imported fem_pendulum_fmu from") == (2 if command == "sweep" else 1), said
+    assert "physics/scene.py" in said, said
 
 
 def test_run_says_what_auto_picked_and_why(fmus, tmp_path):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import json
+import math
 import os
 import re
 import subprocess
@@ -109,6 +110,27 @@ def test_missing_packages_are_named_with_the_install_command(fmus, tmp_path):
     assert error, run.stdout + run.stderr[-2000:]
     assert "ngsolve is not installed" in error[0] and "scipy is not installed" in error[0]
     assert f"{python} -m pip install" in error[0] and '"ngsolve>=' in error[0]
+
+
+def host_output(verb: str, *args: object) -> tuple[Any, str]:
+    """(the JSON of tests/host_runs.py VERB, everything else it printed), from a fresh interpreter that must
+    exit with 0."""
+    run = subprocess.run([sys.executable, str(HOST_RUNS), verb, *map(str, args)], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-3000:]
+    *printed, last = run.stdout.strip().splitlines()
+    return json.loads(last), "\n".join(printed)
+
+
+def test_an_fmu_refuses_to_run_another_copy_of_its_package_already_imported(fmus, tmp_path):
+    """Python keeps one module per name: an FMU in a host that has imported fem_pendulum_fmu from elsewhere
+    would run that copy's code. A copy with other contents is refused with both named; an identical one runs."""
+    fmu, _ = fmus
+    same, _ = host_output("foreign", fmu, tmp_path / "same", "same")
+    assert same["instantiated"] and math.isfinite(same["theta"])
+    changed, printed = host_output("foreign", fmu, tmp_path / "changed", "changed")
+    assert not changed["instantiated"]
+    assert "already imported fem_pendulum_fmu from" in printed and str(tmp_path / "changed") in printed
+    assert "physics/scene.py" in printed
 
 
 @pytest.mark.parametrize("fidelity", [4, 2], ids=["fem", "rigid"])

@@ -8,6 +8,11 @@ missing. `prepare(resources)` does two things and returns the problems as text
 - forgets the modules of an earlier copy of this FMU whose extraction folder is
   gone (fmpy deletes it after each run): left in sys.modules they would point a
   later run in the same process at deleted files;
+- refuses to run where the process has already imported a module this FMU
+  ships (fem_pendulum_fmu, pythonfmu, its entry script) from another folder
+  with other contents: Python keeps one module per name, so the FMU would
+  silently run that copy's code instead of its own (another version of this
+  FMU, or the package installed in the host's environment);
 - checks resources/requirements.txt against the running interpreter, so that a
   missing or too old package is named with the command that installs it,
   instead of failing later inside the physics.
@@ -28,6 +33,9 @@ REQUIREMENT = re.compile(r"^\s*([A-Za-z0-9_.\-]+)\s*(?:>=\s*([0-9][0-9.]*))?")
 def prepare(resources: str) -> str:
     """Problems that stop this FMU from running in this interpreter, as one message ("" if none)."""
     forget_deleted_copies(Path(resources))
+    foreign = foreign_copy_problems(Path(resources))
+    if foreign:
+        return "; ".join(foreign)
     problems = requirement_problems(Path(resources) / "requirements.txt")
     if not problems:
         return ""
@@ -61,6 +69,71 @@ def forget_deleted_copies(resources: Path) -> list[str]:
     if dropped:
         importlib.invalidate_caches()
     return dropped
+
+
+def foreign_copy_problems(resources: Path) -> list[str]:
+    """One sentence per shipped module that this process has already imported from another folder whose
+    files differ from the shipped ones (the first differing file named); an identical copy is no problem."""
+    problems = []
+    for name in sorted(shipped_modules(resources) - {"femp_preflight"}):
+        loaded = _loaded_from(sys.modules.get(name))
+        shipped = resources / name if (resources / name).is_dir() else resources / f"{name}.py"
+        if loaded is None or _same_path(loaded, shipped):
+            continue
+        differing = _first_difference(shipped, loaded, sys.modules[name])
+        if differing is not None:
+            problems.append(
+                f"this process has already imported {name} from {loaded}, which differs from the copy in this "
+                f"FMU ({differing}), and Python runs one copy of a module per process: the FMU would run that "
+                f"code, not its own. Run the FMU in a process that has not imported {name}, or with the "
+                f"{name} it was built from"
+            )
+    return problems
+
+
+def _loaded_from(module: object) -> Path | None:
+    """The folder of an imported package, the file of an imported module; None if it has no file."""
+    file = getattr(module, "__file__", None)
+    if not isinstance(file, str) or not file:
+        return None
+    path = Path(file)
+    return path.parent if path.name == "__init__.py" else path
+
+
+def _same_path(a: Path, b: Path) -> bool:
+    try:
+        return a.resolve() == b.resolve()
+    except OSError:
+        return False
+
+
+def _first_difference(shipped: Path, loaded: Path, module: object) -> str | None:
+    """The first shipped file (relative path) whose copy in `loaded` is missing or differs, or None. The
+    verdict is kept on the loaded module, so that a host instantiating many times compares once."""
+    verdicts = module.__dict__.setdefault("_femp_compared_with", {})
+    key = str(shipped)
+    if key not in verdicts:
+        verdicts[key] = _compare(shipped, loaded)
+    return verdicts[key]
+
+
+def _compare(shipped: Path, loaded: Path) -> str | None:
+    if shipped.is_file():
+        return None if _same_bytes(shipped, loaded) else shipped.name
+    for file in sorted(shipped.rglob("*")):
+        if file.is_dir() or "__pycache__" in file.parts or file.suffix == ".pyc":
+            continue
+        relative = file.relative_to(shipped)
+        if not _same_bytes(file, loaded / relative):
+            return str(relative)
+    return None
+
+
+def _same_bytes(a: Path, b: Path) -> bool:
+    try:
+        return a.read_bytes() == b.read_bytes()
+    except OSError:
+        return False
 
 
 def _file_is_gone(module: object) -> bool:

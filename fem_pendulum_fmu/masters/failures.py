@@ -25,6 +25,13 @@ class IncompleteRun(RuntimeError):
     """A run that ended before its stop time; what it wrote is kept."""
 
 
+def not_instantiated(fmu: Path | str, problems: list[str]) -> IncompleteRun:
+    """The IncompleteRun of an FMU that refused fmi2Instantiate, with what it logged (fmpy says only
+    "Failed to instantiate model"): a missing package, another copy of its package already imported."""
+    said = "; ".join(problems) or "it logged no message"
+    return IncompleteRun(f"the FMU {fmu} could not be instantiated: {said}")
+
+
 def finite_cell(row: list[str], k: int) -> tuple[float | None, str]:
     """Cell k of a CSV row as a finite number (None if it is not one, or missing), and its text."""
     text = row[k].strip() if k < len(row) else ""

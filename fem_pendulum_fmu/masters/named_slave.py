@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 
@@ -28,7 +29,13 @@ class NamedSlave:
         callbacks.logger = self._logger
         callbacks.allocateMemory = defaultCallbacks.allocateMemory
         callbacks.freeMemory = defaultCallbacks.freeMemory
-        self.fmu.instantiate(callbacks=callbacks)
+        try:
+            self.fmu.instantiate(callbacks=callbacks)
+        except Exception:  # fmpy's bare Exception: the FMU's logged reason says why
+            from .failures import not_instantiated
+
+            shutil.rmtree(self.dir, ignore_errors=True)
+            raise not_instantiated(path, self.problems) from None
         try:
             self.fmu.setupExperiment(startTime=0.0)
             self.fmu.enterInitializationMode()
@@ -64,7 +71,5 @@ class NamedSlave:
         self._free()
 
     def _free(self) -> None:
-        import shutil
-
         self.fmu.freeInstance()  # frees the instance and unloads the library
         shutil.rmtree(self.dir, ignore_errors=True)

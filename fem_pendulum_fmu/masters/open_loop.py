@@ -27,6 +27,7 @@ from .failures import (
     check_times,
     fidelity_choice,
     finite_cell,
+    not_instantiated,
 )
 from .realtime import Pacer
 from .run_options import add_run_options
@@ -162,6 +163,10 @@ def run(
         return RunResult(kept, problems, said, interrupted="KeyboardInterrupt" in said)
     except KeyboardInterrupt:
         return RunResult(recorders[0].result() if recorders else None, problems, interrupted=True)
+    except Exception as exc:
+        if str(exc).startswith("Failed to instantiate"):  # fmpy's words; the FMU's log says why
+            raise not_instantiated(fmu, problems) from None
+        raise
     finally:
         bar.close()
     return RunResult(data, problems)

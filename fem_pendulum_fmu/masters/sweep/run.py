@@ -105,13 +105,14 @@ class LoadedFmu:
                 self._instance.freeInstance()
                 self._instance = None
         if self._instance is None:
-            self._instance = FMU2Slave(
+            fresh = FMU2Slave(
                 guid=self.md.guid,
                 unzipDirectory=self.dir,
                 modelIdentifier=self.md.coSimulation.modelIdentifier,
                 instanceName="sweep",
             )
-            self._instance.instantiate(callbacks=self._callbacks, loggingOn=True)
+            fresh.instantiate(callbacks=self._callbacks, loggingOn=True)  # kept only once instantiated:
+            self._instance = fresh  # a refused one has no component, and the next sample tries again
         self._used = True
         return self._instance
 
