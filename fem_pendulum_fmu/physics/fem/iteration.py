@@ -43,7 +43,8 @@ class _Body(ctypes.Structure):
 
 class _Factors(ctypes.Structure):
     _fields_ = [("n", _I), ("free_dofs", _P), ("scale", _P), ("perm_r", _P), ("perm_c", _P), ("Lp", _P)]
-    _fields_ += [("Li", _P), ("Lx", _P), ("Up", _P), ("Ui", _P), ("Ux", _P), ("u_diag", _P), ("work", _P)]
+    _fields_ += [("Li", _P), ("Lx", _P), ("Up", _P), ("Ui", _P), ("Ux", _P), ("u_diag", _P), ("sn", _P), ("Ur", _P)]
+    _fields_ += [("work", _P)]
 
 
 class _Iteration(ctypes.Structure):
