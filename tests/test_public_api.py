@@ -26,6 +26,20 @@ def test_importing_the_package_loads_no_numpy():
     assert out.strip() == "False"
 
 
+def test_a_rigid_model_runs_without_importing_ngsolve_or_scipy():
+    # only "auto" asks fidelity_rule.py, which computes the reduced model's modes; a rigid scene named as such
+    # needs neither (they were 0.1-0.15 s of the rigid FMU's start-up, docs/latency.md); auto still asks the rule
+    probe = (
+        "import sys; from fem_pendulum_fmu import Scene, create; "
+        "m = create(Scene().with_values({'model.fidelity': sys.argv[1]})); m.advance(0.01, 0.0); "
+        "print(type(m).__name__, 'ngsolve' in sys.modules, 'scipy' in sys.modules)"
+    )
+    rigid = subprocess.run([sys.executable, "-c", probe, "rigid"], capture_output=True, text=True, check=True)
+    assert rigid.stdout.split() == ["RigidModel", "False", "False"]
+    auto = subprocess.run([sys.executable, "-c", probe, "auto"], capture_output=True, text=True, check=True)
+    assert auto.stdout.split()[2] == "True"  # the rule's modes
+
+
 def test_problems_lists_every_bad_value_and_validate_raises_them_all():
     bad = scene.Scene().with_values({"pendulum.nu": 0.5, "model.fidelity": "exact", "solver.max_substeps": -1})
     found = scene.problems(bad)

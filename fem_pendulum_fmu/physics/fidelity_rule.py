@@ -21,7 +21,6 @@ docs/reduced.md gives the measurements behind the thresholds.
 
 from __future__ import annotations
 
-import logging
 import math
 from dataclasses import dataclass
 
@@ -30,8 +29,6 @@ from .reduced.modes import first_elastic_frequency, modal_basis
 from .reduced.strain import uses_linear_strain
 from .rigid.model import RigidModel
 from .scene import Scene
-
-LOG = logging.getLogger("fem_pendulum_fmu")
 
 RIGID_CONTACT_PERIODS = 2.0  # f1 * t_c at or above this: the impact is quasi-static for the body
 EXCITED_BAND = 2.0  # an impact of duration t_c excites modes up to EXCITED_BAND / t_c: reduced needs them all
@@ -96,12 +93,3 @@ def impact_speed(rigid: RigidModel) -> float:
     scene = rigid.scene
     energy = 0.5 * rigid.inertia * scene.omega0**2 + swing_energy(scene)
     return math.sqrt(2.0 * max(energy, swing_energy(scene, DESIGN_RELEASE)) / rigid.inertia)
-
-
-def resolve(scene: Scene) -> str:
-    """The fidelity that runs: the parameter, or the rule's choice for "auto" (logged)."""
-    if scene.model.fidelity != "auto":
-        return scene.model.fidelity
-    choice = choose(scene)
-    LOG.info("model.fidelity = auto picked %s: %s", choice.fidelity, choice.reason)
-    return choice.fidelity
