@@ -1,6 +1,6 @@
 """Cost per simulated second of every fidelity through the FMU, against the seed and against real time.
 
-    python benchmarks/realtime.py [--fmu dist/FemPendulum.fmu] [--repeat 3] [--seed-steps 20] [--runs NAME ...]
+    python benchmarks/realtime.py [--fmu dist/FemPendulum.fmu] [--repeat 3] [--seed-steps 10] [--runs NAME ...]
 
 Each run is a fresh process that drives FemPendulum.fmu as a master does:
 fmpy's FMU2Slave, 1 ms communication steps, every step setReal(torque = 0),
@@ -16,8 +16,11 @@ only (instantiation and initialisation are timed apart). Runs (--runs picks):
 
 Printed per run: CPU seconds (time.process_time of the run's process) and wall
 seconds per simulated second (median of --repeat runs, with the spread), the
-ratio to the seed baseline timed in this session (../shared/baseline/
-seed_pendulum.py, --seed-steps 1 ms steps, when that file is there), and the
+ratio to the seed baseline (../shared/baseline/seed_pendulum.py, --seed-steps
+1 ms steps, when that file is there) timed before the first run and after each
+one, each run against the mean of the seed's timings just before and after it
+(this VM's slow spells last minutes: a seed timed once put the ratios of runs
+minutes away 30 % off), and the
 accuracy: max |theta - theta_ref| before the reference's second impact against
 benchmarks/references (the L2 runs of benchmarks/speed_vs_error.py) and the
 energy error max |E_total - E_0 - W_torque| over the swing energy. A second
@@ -146,7 +149,7 @@ def print_latency(results: dict) -> None:
         "| max / median (spread) | share over 1 ms |"
     )
     print("|---|---|---|---|---|---|---|---|")
-    for name, (runs, _, _) in results.items():
+    for name, (runs, _, _, _) in results.items():
         lat = [r["latency"] for r in runs]
         med = functools.partial(_median_of, lat)
         tail = [x["p999"] / x["median"] for x in lat]
@@ -189,53 +192,47 @@ def accuracy(series: dict, reference: str | None) -> tuple[float, float]:
     return float(np.max(np.abs(theta[:n] - ref["theta"][:n]))), energy
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--fmu", type=Path, default=Path("dist") / "FemPendulum.fmu")
-    parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--seed-steps", type=int, default=20, help="1 ms steps of the seed baseline to time (0: skip)")
-    parser.add_argument("--runs", nargs="*", default=[*RUNS, "floor"], choices=[*RUNS, "floor"])
-    parser.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
-    args = parser.parse_args()
-    if args.child:
-        print(json.dumps(child(args.child[0], json.loads(args.child[1]))))
-        return
-    load_before = os.getloadavg()
+def seed_per_sim_s(steps: int) -> float | None:
+    """The seed baseline's wall seconds per simulated second, timed now (None: not timed or not there)."""
+    import fem_speed
+
+    cost = fem_speed.seed_cost_per_step(steps) if steps else None
+    return None if cost is None else cost * 1000.0
+
+
+def run_all(names: list[str], fmu: Path, repeat: int, seed_steps: int) -> tuple[dict, list[float | None]]:
+    """Each named run `repeat` times, the seed timed before the first and after each: per name (runs, theta
+    error, energy error, the mean of the seed's timings around it), and the seed's timings."""
+    seeds = [seed_per_sim_s(seed_steps)]
+    results = {}
     with tempfile.TemporaryDirectory() as tmp:
         import rigid_floor
 
-        floor = rigid_floor.build_floor(Path(tmp)) if "floor" in args.runs else None
-        results = {}
-        for name in args.runs:
+        floor = rigid_floor.build_floor(Path(tmp)) if "floor" in names else None
+        for name in names:
             if name == "floor":
-                fmu, spec = floor, {"fidelity": None, "reals": {}, "integers": {}, "t_end": 2.0, "reference": None}
+                path, spec = floor, {"fidelity": None, "reals": {}, "integers": {}, "t_end": 2.0, "reference": None}
             else:
                 fidelity, reals, integers, t_end, reference = RUNS[name]
-                fmu = args.fmu
-                spec = {
-                    "fidelity": fidelity,
-                    "reals": reals,
-                    "integers": integers,
-                    "t_end": t_end,
-                    "reference": reference,
-                }
-            runs = [run_once(fmu, spec) for _ in range(args.repeat)]
-            results[name] = (runs, *accuracy(runs[0]["series"], spec["reference"]))
+                path = fmu
+                spec = {"fidelity": fidelity, "reals": reals, "integers": integers, "t_end": t_end}
+                spec["reference"] = reference
+            runs = [run_once(path, spec) for _ in range(repeat)]
+            seeds.append(seed_per_sim_s(seed_steps))
+            around = None if None in seeds[-2:] else (seeds[-2] + seeds[-1]) / 2.0
+            results[name] = (runs, *accuracy(runs[0]["series"], spec["reference"]), around)
             print(name, [round(r["cpu"], 4) for r in runs], flush=True)
-    import fem_speed
+    return results, seeds
 
-    seed = fem_speed.seed_cost_per_step(args.seed_steps) * 1000.0 if args.seed_steps else None
-    load_after = os.getloadavg()
-    print(
-        f"\nload average before {load_before[0]:.2f}, after {load_after[0]:.2f}; seed: "
-        + (f"{seed:.0f} s per simulated s ({args.seed_steps} steps of 1 ms timed now)" if seed else "not timed")
-    )
+
+def print_costs(results: dict) -> None:
+    """The table of cost per simulated second, against the seed, start-up and accuracy."""
     print(
         "\n| run | CPU s per simulated s (median, spread) | wall s per simulated s | x the seed (wall) | start-up s "
         "| max theta error before the 2nd impact (rad) | energy error / swing |"
     )
     print("|---|---|---|---|---|---|---|")
-    for name, (runs, dtheta, energy) in results.items():
+    for name, (runs, dtheta, energy, seed) in results.items():
         cpu = [r["cpu"] for r in runs]
         wall = statistics.median(r["wall"] for r in runs)
         ratio = f"{seed / wall:.0f}" if seed else "-"
@@ -243,6 +240,29 @@ def main() -> None:
             f"| {name} | {statistics.median(cpu):.3f} ({min(cpu):.3f}-{max(cpu):.3f}) | {wall:.3f} | {ratio} "
             f"| {statistics.median(r['startup'] for r in runs):.2f} | {dtheta:.2e} | {energy:.1e} |"
         )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--fmu", type=Path, default=Path("dist") / "FemPendulum.fmu")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--seed-steps", type=int, default=10, help="1 ms steps of the seed baseline to time (0: skip)")
+    parser.add_argument("--runs", nargs="*", default=[*RUNS, "floor"], choices=[*RUNS, "floor"])
+    parser.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        print(json.dumps(child(args.child[0], json.loads(args.child[1]))))
+        return
+    load_before = os.getloadavg()
+    results, seeds = run_all(args.runs, args.fmu, args.repeat, args.seed_steps)
+    load_after = os.getloadavg()
+    timed = ", ".join(f"{s:.0f}" for s in seeds if s is not None)
+    said = f"{timed} s per simulated s ({args.seed_steps} steps of 1 ms before the first run and after each)"
+    print(
+        f"\nload average before {load_before[0]:.2f}, after {load_after[0]:.2f}; seed: "
+        + (said if None not in seeds else "not timed")
+    )
+    print_costs(results)
     print_latency(results)
 
 
