@@ -11,8 +11,9 @@ import scipy.sparse.linalg as spl
 
 from fem_pendulum_fmu.physics import native
 from fem_pendulum_fmu.physics.fem.iteration import ANDERSON_DEPTH
-from fem_pendulum_fmu.physics.fem.lu import SUPERNODE_MOST, HeldFactor, Pattern, Symbolic
+from fem_pendulum_fmu.physics.fem.lu import SUPERNODE_MOST, HeldFactor, Pattern, Symbolic, supernodes
 from fem_pendulum_fmu.physics.fem.model import FemModel
+from fem_pendulum_fmu.physics.fem.residual import point_blocks
 from fem_pendulum_fmu.physics.scene import compliant, stiff
 from fem_pendulum_fmu.physics.sparse import scipy_matrix
 
@@ -251,10 +252,36 @@ def test_supernodes_share_the_rows_below_them() -> None:
     assert sn[0] == len(starts) - 1 and starts[0] == 0 and starts[-1] == len(Lp) - 1
     widths = np.diff(starts)
     assert widths.min() >= 1 and widths.max() <= SUPERNODE_MOST and widths.mean() > 2.0  # measured 3.3
+
+    def continues(j: int) -> bool:  # column j + 1 holds column j's rows after its first, which is j + 1
+        own, following = Li[Lp[j] : Lp[j + 1]], Li[Lp[j + 1] : Lp[j + 2]]
+        return len(own) == len(following) + 1 and own[0] == j + 1 and np.array_equal(own[1:], following)
+
     for s, e in zip(starts[:-1], starts[1:], strict=True):
-        for j in range(s, e - 1):
-            own, following = Li[Lp[j] : Lp[j + 1]], Li[Lp[j + 1] : Lp[j + 2]]
-            assert own[0] == j + 1 and np.array_equal(own[1:], following)
+        assert all(continues(j) for j in range(s, e - 1))
+        if e < len(Lp) - 1 and e - s < SUPERNODE_MOST:  # a run goes on as long as the next column continues it
+            assert not continues(e - 1)
+
+
+def test_supernodes_are_cut_at_the_widest_the_kernel_takes() -> None:
+    # a dense unit lower triangle of 200 columns is one run, cut every SUPERNODE_MOST (64) columns
+    columns = [np.arange(j + 1, 200) for j in range(200)]
+    Lp = np.concatenate([[0], np.cumsum([len(c) for c in columns])]).astype(np.int32)
+    sn = supernodes(Lp, np.concatenate(columns).astype(np.int32))
+    assert sn.tolist() == [4, 0, 64, 128, 192, 200]
+
+
+def test_point_blocks_share_one_block_among_an_elements_points() -> None:
+    # points 0 and 1 on basis functions (0, 2), point 2 on (1, 2, 3): blocks of 4^2 and 6^2 entries; n_scalar 4
+    rows = [[0, 2], [0, 2], [1, 2, 3]]
+    indptr = np.concatenate([[0], np.cumsum([len(r) for r in rows * 2])])
+    grad = sp.csr_matrix((np.ones(indptr[-1]), np.concatenate(rows * 2), indptr), shape=(6, 4))
+    starts, pairs = point_blocks(grad, 3, 4)
+    assert starts.tolist() == [0, 0, 16] and starts.dtype == np.int32
+    first = [0, 2, 4, 6]  # x then y unknowns of the first block
+    assert pairs[:16].tolist() == [[r, c] for r in first for c in first]
+    second = [1, 2, 3, 5, 6, 7]
+    assert pairs[16:].tolist() == [[r, c] for r in second for c in second] and len(pairs) == 16 + 36
 
 
 def test_supernodal_solve_reads_many_rows_below_in_chunks() -> None:

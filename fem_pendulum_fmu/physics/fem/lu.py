@@ -99,19 +99,35 @@ def _fill_columns(lower: sp.csc_matrix) -> list[np.ndarray]:
 SUPERNODE_MOST = 64  # the widest supernode, as elastic_kernel.c's femp_lu_solve takes them
 
 
-def supernodes(columns: list[np.ndarray]) -> np.ndarray:
-    """The runs of columns [s, e) of L in which column j holds row j + 1 and then the rows of column j + 1, so
-    that each holds rows j + 1 .. e - 1 and then column e - 1's (femp_lu_solve reads the rows below a run
-    once for all its columns): their count, then their first columns and n. A node's x and y unknowns make
-    runs of two at least (the 0.005 m mesh: 1319 runs of 3.7 columns on average)."""
-    starts = [0]
-    for j in range(len(columns) - 1):
-        own, next_one = columns[j], columns[j + 1]
-        joins = len(own) == len(next_one) + 1 and own[0] == j + 1 and np.array_equal(own[1:], next_one)
-        if not joins or j + 1 - starts[-1] == SUPERNODE_MOST:
-            starts.append(j + 1)
-    starts.append(len(columns))
+def supernodes(Lp: np.ndarray, Li: np.ndarray) -> np.ndarray:
+    """The runs of columns [s, e) of L (CSC, strict, rows sorted) in which column j holds row j + 1 and then
+    the rows of column j + 1, so that each holds rows j + 1 .. e - 1 and then column e - 1's (femp_lu_solve
+    reads the rows below a run once for all its columns), as long as they go, cut every SUPERNODE_MOST
+    columns: their count, then their first columns and n. A node's x and y unknowns make runs of two at least
+    (the 0.005 m mesh: 1319 runs of 3.7 columns on average)."""
+    starts = _run_starts(Lp, Li)
     return _int32(np.array([len(starts) - 1, *starts]))
+
+
+def _run_starts(Lp: np.ndarray, Li: np.ndarray) -> list[int]:
+    """supernodes' first columns, then n."""
+    n = len(Lp) - 1
+    if n == 0:
+        return [0, 0]
+    lengths = np.diff(Lp).astype(np.int64)
+    j = np.arange(n - 1)
+    joins = (lengths[:-1] == lengths[1:] + 1) & (lengths[:-1] > 0)  # column j + 1 may continue column j's run
+    joins[joins] = Li[Lp[:-2][joins]] == j[joins] + 1
+    column = np.repeat(np.arange(n), lengths)  # each entry's column
+    entry = np.flatnonzero(column >= 1)
+    entry = entry[joins[column[entry] - 1]]  # the entries of the columns that may continue the last one
+    c = column[entry]
+    differs = Li[entry] != Li[entry - Lp[c] + Lp[c - 1] + 1]  # against the last column's rows after its first
+    joins[np.unique(c[differs] - 1)] = False
+    first = np.concatenate(([0], j[~joins] + 1))  # the runs as long as they go, then cut every SUPERNODE_MOST
+    pieces = -(-(np.append(first[1:], n) - first) // SUPERNODE_MOST)
+    piece = np.arange(pieces.sum()) - np.repeat(np.cumsum(pieces) - pieces, pieces)  # the piece's number in its run
+    return [*(np.repeat(first, pieces) + SUPERNODE_MOST * piece).tolist(), n]
 
 
 @dataclass
@@ -174,7 +190,7 @@ class Symbolic:
         Up, Ui, u_rows = _int32(U.indptr), _int32(U.indices), _int32(U.data - 1.0)  # U[i, j] is L[j, i]'s place
         Ap, Ai, zeros = _int32(pattern.indptr), _int32(pattern.indices), np.zeros
         values = (zeros(len(Li)), zeros(len(Ui)), zeros(n), zeros(n), zeros(n))
-        return Symbolic(Ap, Ai, pos, order, Lp, Li, Up, Ui, *values, supernodes(columns), u_rows, zeros(len(Li)))
+        return Symbolic(Ap, Ai, pos, order, Lp, Li, Up, Ui, *values, supernodes(Lp, Li), u_rows, zeros(len(Li)))
 
     def factorise(self, lib: ctypes.CDLL, entries: np.ndarray) -> bool:
         """Factorise the matrix with these entries on its pattern into the arrays here; False where a pivot

@@ -181,6 +181,37 @@ def volume_rule(space: FemSpace, region: str) -> VolumeRule:
     return VolumeRule(grad, np.array(weights) * space.scene.pendulum.thickness)
 
 
+MOST_BASIS = 32  # femp_stress_tangent's local block holds at most this many basis functions a point
+
+
+def point_blocks(grad: sp.csr_matrix, q: int, n_scalar: int) -> tuple[np.ndarray, np.ndarray]:
+    """femp_stress_tangent's blocks of a rule's q points (its d/dx rows of grad): consecutive points with the
+    same basis functions (an element's) share one block of (2 k)^2 entries, k their count. Returns the start
+    of each point's block and the (row, column) unknowns of every block's entries, row-major, x components
+    before y (the d/dy rows hold the d/dx rows' columns in the same order: require_halves_share_columns)."""
+    counts = np.diff(grad.indptr[: q + 1])
+    if counts.max(initial=0) > MOST_BASIS:
+        raise ValueError(f"a point of the rule holds over {MOST_BASIS} basis functions")
+    padded = np.full((q, MOST_BASIS), -1, dtype=np.int64)  # each point's basis functions, -1 after them
+    within = np.arange(grad.indptr[q]) - np.repeat(grad.indptr[:q], counts)
+    padded[np.repeat(np.arange(q), counts), within] = grad.indices[: grad.indptr[q]]
+    first = np.ones(q, dtype=bool)  # a point that opens a block: its basis functions differ from the last's
+    first[1:] = np.any(padded[1:] != padded[:-1], axis=1)
+    opening = np.flatnonzero(first)
+    sizes = (2 * counts[opening]) ** 2
+    block_start = np.cumsum(sizes) - sizes
+    pairs = np.empty((int(sizes.sum()), 2), dtype=np.int64)
+    for k in np.unique(counts[opening]):  # the blocks of k basis functions at once (one k per element type)
+        ours = opening[counts[opening] == k]
+        both = np.concatenate((padded[ours, :k], padded[ours, :k] + n_scalar), axis=1)  # (blocks, 2 k)
+        rows = np.repeat(both, 2 * k, axis=1)  # entry (i, j) of a block: row both[i], column both[j]
+        cols = np.tile(both, (1, 2 * k))
+        at = (block_start[counts[opening] == k][:, None] + np.arange(4 * k * k)).ravel()
+        pairs[at] = np.stack((rows.ravel(), cols.ravel()), axis=1)
+    starts = block_start[np.cumsum(first) - 1]
+    return starts.astype(np.int32), pairs
+
+
 @dataclass
 class _Body:
     """One body's rule and material, in the arrays the kernel reads."""
@@ -278,21 +309,7 @@ class ElasticTerms:
         """Per body, femp_stress_tangent's local unknowns: (start of each point's block, shared by the
         consecutive points of an element; the unknowns of the blocks' entries as (row, column) pairs,
         flattened: x components of the element's basis functions, then y)."""
-        out = []
-        for b in self._bodies:
-            g, q = b.rule.grad, len(b.rule.weights)
-            starts, pairs, end, last = [], [], 0, np.zeros(0)
-            for p in range(q):
-                dofs = g.indices[g.indptr[p] : g.indptr[p + 1]]
-                if len(dofs) > 32:  # (the d/dy row holds the same columns: require_halves_share_columns)
-                    raise ValueError("a point of the rule holds over 32 basis functions")
-                if p == 0 or not np.array_equal(dofs, last):
-                    both = np.concatenate((dofs, dofs + self.nS))
-                    pairs.append(np.stack(np.meshgrid(both, both, indexing="ij"), axis=-1).reshape(-1, 2))
-                    end, last = end + len(both) ** 2, dofs
-                starts.append(end - 4 * len(last) ** 2)
-            out.append((np.array(starts, dtype=np.int32), np.concatenate(pairs)))
-        return out
+        return [point_blocks(b.rule.grad, len(b.rule.weights), self.nS) for b in self._bodies]
 
     def add_tangent(self, u: np.ndarray, slots: list[tuple[np.ndarray, np.ndarray]], out: np.ndarray) -> None:
         """out[slots] += the stress term's Jacobian in the end displacement u (compiled kernel only), each
