@@ -4,6 +4,7 @@
 import subprocess
 import sys
 
+import in_child
 import pytest
 
 import fem_pendulum_fmu
@@ -26,18 +27,23 @@ def test_importing_the_package_loads_no_numpy():
     assert out.strip() == "False"
 
 
+def modules_after_a_step(fidelity: str) -> list:
+    """In a fresh interpreter (tests/in_child.py): the model's class after a step of the default scene at
+    this fidelity, and whether NGSolve and SciPy were imported."""
+    model = fem_pendulum_fmu.create(scene.Scene().with_values({"model.fidelity": fidelity}))
+    model.advance(0.01, 0.0)
+    return [type(model).__name__, "ngsolve" in sys.modules, "scipy" in sys.modules]
+
+
 def test_a_rigid_model_runs_without_importing_ngsolve_or_scipy():
     # only "auto" asks fidelity_rule.py, which computes the reduced model's modes; a rigid scene named as such
     # needs neither (they were 0.1-0.15 s of the rigid FMU's start-up, docs/latency.md); auto still asks the rule
-    probe = (
-        "import sys; from fem_pendulum_fmu import Scene, create; "
-        "m = create(Scene().with_values({'model.fidelity': sys.argv[1]})); m.advance(0.01, 0.0); "
-        "print(type(m).__name__, 'ngsolve' in sys.modules, 'scipy' in sys.modules)"
-    )
-    rigid = subprocess.run([sys.executable, "-c", probe, "rigid"], capture_output=True, text=True, check=True)
-    assert rigid.stdout.split() == ["RigidModel", "False", "False"]
-    auto = subprocess.run([sys.executable, "-c", probe, "auto"], capture_output=True, text=True, check=True)
-    assert auto.stdout.split()[2] == "True"  # the rule's modes
+    def in_a_child(fidelity: str) -> list:
+        command = in_child.command("test_public_api", "modules_after_a_step", fidelity)
+        return in_child.result(subprocess.run(command, capture_output=True, text=True, check=True).stdout)
+
+    assert in_a_child("rigid") == ["RigidModel", False, False]
+    assert in_a_child("auto")[2] is True  # the rule's modes
 
 
 def test_problems_lists_every_bad_value_and_validate_raises_them_all():
