@@ -198,15 +198,16 @@ def point_blocks(grad: sp.csr_matrix, q: int, n_scalar: int) -> tuple[np.ndarray
     first = np.ones(q, dtype=bool)  # a point that opens a block: its basis functions differ from the last's
     first[1:] = np.any(padded[1:] != padded[:-1], axis=1)
     opening = np.flatnonzero(first)
-    sizes = (2 * counts[opening]) ** 2
+    k_of = counts[opening]  # each block's basis functions
+    sizes = (2 * k_of) ** 2
     block_start = np.cumsum(sizes) - sizes
     pairs = np.empty((int(sizes.sum()), 2), dtype=np.int64)
-    for k in np.unique(counts[opening]):  # the blocks of k basis functions at once (one k per element type)
-        ours = opening[counts[opening] == k]
+    for k in np.unique(k_of):  # the blocks of k basis functions at once (one k per element type)
+        ours = opening[k_of == k]
         both = np.concatenate((padded[ours, :k], padded[ours, :k] + n_scalar), axis=1)  # (blocks, 2 k)
         rows = np.repeat(both, 2 * k, axis=1)  # entry (i, j) of a block: row both[i], column both[j]
         cols = np.tile(both, (1, 2 * k))
-        at = (block_start[counts[opening] == k][:, None] + np.arange(4 * k * k)).ravel()
+        at = (block_start[k_of == k][:, None] + np.arange(4 * k * k)).ravel()
         pairs[at] = np.stack((rows.ravel(), cols.ravel()), axis=1)
     starts = block_start[np.cumsum(first) - 1]
     return starts.astype(np.int32), pairs
