@@ -215,8 +215,13 @@ def run_all(names: list[str], fmu: Path, repeat: int, seed_steps: int) -> tuple[
             else:
                 fidelity, reals, integers, t_end, reference = RUNS[name]
                 path = fmu
-                spec = {"fidelity": fidelity, "reals": reals, "integers": integers, "t_end": t_end}
-                spec["reference"] = reference
+                spec = {
+                    "fidelity": fidelity,
+                    "reals": reals,
+                    "integers": integers,
+                    "t_end": t_end,
+                    "reference": reference,
+                }
             runs = [run_once(path, spec) for _ in range(repeat)]
             seeds.append(seed_per_sim_s(seed_steps))
             around = None if None in seeds[-2:] else (seeds[-2] + seeds[-1]) / 2.0
