@@ -61,6 +61,7 @@ SIGNATURES = {
     "femp_iterate": (_P, _I, _I, _D, _D),
     "femp_rigid_contact": (_P, _P, _I, _P),
     "femp_rigid_contact_resultant": (_P, _P, _P, _P),
+    "femp_rigid_contact_stiffness": (_P, _P, _P, _P, _P),
     "femp_misses_record": (_I, _I, _P, _I, _P, _I, _I, _D, _D),
     "femp_misses_predict": (_I, _I, _P, _I, _I, _D, _D),
     "femp_mass_moments": (_I, _P, _P, _P, _P, _P, _P),

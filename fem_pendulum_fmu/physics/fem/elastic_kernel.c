@@ -473,7 +473,25 @@ struct femp_iteration {
     int depth, kept;         /* differences the step combines at most (ANDERSON_MOST), and holds now */
     double *df, *dg;         /* the kept differences of f (n_disp each) and of g (size each), newest first */
     double *gram;            /* their inner products, ANDERSON_MOST x ANDERSON_MOST */
+    struct femp_low_rank *low_rank; /* the held Jacobian's update for the rigid wall's contact (NULL: none) */
 };
+
+/* The held Jacobian A (assembled without the contact) updated for the rigid wall's contact term, whose
+ * Jacobian is V K V^T on the m unknowns dofs of the contact set's elements (fem/contact_update.py): the
+ * correction z = A^-1 r becomes z - G M V^T z with G = A^-1 V and M = (I + K S)^-1 K, S = V^T G, all in
+ * the held Jacobian's frame. K is made at each iterate from the term's stiffness at the listed points,
+ * c_j g_j g_j^T in their positions X_j + E_j u, whose rows of E on dofs are ex and ey. */
+struct femp_low_rank {
+    int m, n_points;
+    const int *dofs;
+    const double *G, *S, *ex, *ey; /* G: m rows of size; S: m x m; ex, ey: n_points x m (all by rows) */
+    double *c, *gx, *gy;           /* n_points each */
+    double *K, *B, *y;             /* m x m, m x m, 2 m */
+    double *last;                  /* c, gx, gy and the turn's cosine and sine M was made for (3 n + 2) */
+    int made;                      /* 0: M is not made for the current G (contact_update.py resets it) */
+};
+void femp_rigid_contact_stiffness(const struct femp_rigid_contact *c, const double *u, double *cj, double *gx,
+                                  double *gy);
 
 /* The iterations with a held Jacobian are a fixed-point map g(x) = x - corr(x) that contracts linearly;
  * the Anderson step combines the last iterates: x+ = g - sum_j gamma_j dg_j, with dg_j the differences of
@@ -569,6 +587,86 @@ static void csr_axpy(const struct femp_csr *m, double a, const double *x, double
     femp_csr_axpy(m->n, m->indptr, m->indices, m->data, a, x, out);
 }
 
+/* whether the stiffness at the listed points and the turn are those M was made for: a point pushed on both
+ * ends of the step by the same face keeps its c (k/2 times its weight) and its normal */
+static int same_stiffness(const struct femp_low_rank *lr, double cs, double sn) {
+    int n = lr->n_points;
+    for (int j = 0; j < n; ++j)
+        if (lr->c[j] != lr->last[j] || lr->gx[j] != lr->last[n + j] || lr->gy[j] != lr->last[2 * n + j]) return 0;
+    return cs == lr->last[3 * n] && sn == lr->last[3 * n + 1];
+}
+
+/* M of struct femp_low_rank at the iterate w, into lr->K, the normals turned into the held frame by the angle
+ * whose cosine and sine are cs and sn; 0 where no listed point is pushed (no update) */
+static int low_rank_prepare(const struct femp_iteration *it, double cs, double sn) {
+    struct femp_low_rank *lr = it->low_rank;
+    int m = lr->m, n = lr->n_points, pushed = 0;
+    double *K = lr->K, *B = lr->B, *a = lr->y;
+    femp_rigid_contact_stiffness(it->contact, it->w, lr->c, lr->gx, lr->gy);
+    if (lr->made && same_stiffness(lr, cs, sn)) return lr->made > 0; /* M as made at the last iterate */
+    for (int j = 0; j < n; ++j) lr->last[j] = lr->c[j], lr->last[n + j] = lr->gx[j], lr->last[2 * n + j] = lr->gy[j];
+    lr->last[3 * n] = cs, lr->last[3 * n + 1] = sn;
+    lr->made = -1;
+    for (int i = 0; i < m * m; ++i) K[i] = 0.0;
+    for (int j = 0; j < n; ++j) {
+        double cj = lr->c[j];
+        if (!(cj > 0.0)) continue;
+        pushed = 1;
+        double tx = cs * lr->gx[j] + sn * lr->gy[j], ty = cs * lr->gy[j] - sn * lr->gx[j];
+        for (int r = 0; r < m; ++r) a[r] = tx * lr->ex[(long)j * m + r] + ty * lr->ey[(long)j * m + r];
+        for (int r = 0; r < m; ++r)
+            for (int q = 0; q < m; ++q) K[r * m + q] += cj * a[r] * a[q];
+    }
+    if (!pushed) return 0;
+    for (int r = 0; r < m; ++r) /* B = I + K S */
+        for (int q = 0; q < m; ++q) {
+            double sum = r == q ? 1.0 : 0.0;
+            for (int k = 0; k < m; ++k) sum += K[r * m + k] * lr->S[k * m + q];
+            B[r * m + q] = sum;
+        }
+    for (int col = 0; col < m; ++col) { /* B M = K by elimination with partial pivoting, M over K */
+        int p = col;
+        for (int r = col + 1; r < m; ++r)
+            if (fabs(B[r * m + col]) > fabs(B[p * m + col])) p = r;
+        if (!(fabs(B[p * m + col]) > 0.0)) return 0;
+        if (p != col)
+            for (int q = 0; q < m; ++q) {
+                double t = B[p * m + q];
+                B[p * m + q] = B[col * m + q], B[col * m + q] = t;
+                t = K[p * m + q];
+                K[p * m + q] = K[col * m + q], K[col * m + q] = t;
+            }
+        for (int r = col + 1; r < m; ++r) {
+            double f = B[r * m + col] / B[col * m + col];
+            if (f == 0.0) continue;
+            for (int q = col; q < m; ++q) B[r * m + q] -= f * B[col * m + q];
+            for (int q = 0; q < m; ++q) K[r * m + q] -= f * K[col * m + q];
+        }
+    }
+    for (int r = m - 1; r >= 0; --r)
+        for (int q = 0; q < m; ++q) {
+            double sum = K[r * m + q];
+            for (int k = r + 1; k < m; ++k) sum -= B[r * m + k] * K[k * m + q];
+            K[r * m + q] = sum / B[r * m + r];
+        }
+    lr->made = 1;
+    return 1;
+}
+
+/* z -= G M z[dofs] (M in lr->K, low_rank_prepare) */
+static void low_rank_update(const struct femp_iteration *it, double *z) {
+    const struct femp_low_rank *lr = it->low_rank;
+    int m = lr->m, size = it->size;
+    double *zf = lr->y, *y = lr->y + m;
+    for (int j = 0; j < m; ++j) zf[j] = z[lr->dofs[j]];
+    for (int r = 0; r < m; ++r) y[r] = dot(m, lr->K + (long)r * m, zf);
+    for (int j = 0; j < m; ++j) {
+        const double *g = lr->G + (long)j * size;
+        double yj = y[j];
+        for (int i = 0; i < size; ++i) z[i] -= g[i] * yj;
+    }
+}
+
 /* res_holds_contact: 1 if res holds the contact term, 0 if there is none, 2 to make the compiled rigid-wall
  * term here (fem/rigid_contact.py) */
 double femp_iterate(struct femp_iteration *it, int res_holds_contact, int turn, double c, double s) {
@@ -588,13 +686,17 @@ double femp_iterate(struct femp_iteration *it, int res_holds_contact, int turn, 
         femp_stress_residual(y->q, y->indptr, y->indices, y->data, it->nS, it->w, y->F0, y->C0, y->weights, y->lame_lambda,
                              y->mu, y->n_gauss, y->gauss_s, y->gauss_w, res);
     }
+    int update = it->low_rank != 0 && it->contact != 0 && low_rank_prepare(it, c, s);
     const struct femp_factors *f = &it->lu;
-    if (turn)
-        femp_turned_solve(it->nturn, it->ix, it->iy, c, s, f->n, f->free_dofs, f->scale, f->perm_r, f->perm_c, f->Lp,
-                          f->Li, f->Lx, f->Up, f->Ui, f->Ux, f->u_diag, f->sn, f->Ur, res, it->turned, f->work,
-                          it->corr, size);
-    else
-        femp_lu_solve(f->n, f->free_dofs, f->scale, f->perm_r, f->perm_c, f->Lp, f->Li, f->Lx, f->Up, f->Ui, f->Ux,
-                      f->u_diag, f->sn, f->Ur, res, f->work, it->corr);
+    const double *rhs = res;
+    if (turn) {
+        for (int i = 0; i < size; ++i) it->turned[i] = res[i];
+        femp_turn(it->nturn, it->ix, it->iy, c, -s, it->turned);
+        rhs = it->turned;
+    }
+    femp_lu_solve(f->n, f->free_dofs, f->scale, f->perm_r, f->perm_c, f->Lp, f->Li, f->Lx, f->Up, f->Ui, f->Ux,
+                  f->u_diag, f->sn, f->Ur, rhs, f->work, it->corr);
+    if (update) low_rank_update(it, it->corr);
+    if (turn) femp_turn(it->nturn, it->ix, it->iy, c, s, it->corr);
     return secant_step(it);
 }

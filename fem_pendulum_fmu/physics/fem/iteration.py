@@ -56,6 +56,7 @@ class _Iteration(ctypes.Structure):
     _fields_ += [("res", _P), ("moved", _P), ("turned", _P), ("corr", _P), ("w", _P), ("contact", _P)]
     _fields_ += [("f_last", _P), ("g_last", _P), ("has_last", _I), ("depth", _I), ("kept", _I)]
     _fields_ += [("df", _P), ("dg", _P), ("gram", _P)]
+    _fields_ += [("low_rank", _P)]
 
 
 class FusedIteration:
@@ -111,6 +112,10 @@ class FusedIteration:
         it.inertia, it.half_torque = self._split.linear.coefficients
         it.has_last = 0  # a new solve or a new Jacobian: a new fixed-point map, whose first iterate is not combined
         self._turn = (turn != 0.0, math.cos(turn), math.sin(turn))
+
+    def low_rank(self, address: int) -> None:
+        """The held Jacobian's update for the contact (a struct of fem/contact_update.py; 0: none)."""
+        self._it.low_rank = address
 
     def iterate(self, contact: int) -> float:
         """contact: 1 if the residual vector holds the contact term, 0 if none acts, 2 to make the compiled

@@ -227,6 +227,7 @@ class HeldFactor:
         self.work_at = 0
         self._work = np.zeros(len(self.free))
         self._scale = np.ones(len(self.free))  # S of the factorised S A S
+        self.version = 0  # counts the factorisations: what was solved with the factors is stale once it moves
 
     def factorise(self, mat: ngs.BaseMatrix) -> None:
         """Factorise the free block of an assembled ngsolve matrix."""
@@ -283,6 +284,7 @@ class HeldFactor:
 
     def _use(self, entries: np.ndarray) -> None:
         assert self._pattern is not None
+        self.version += 1
         symbolic = self._symbolic
         if self._lib is not None and symbolic is not None and symbolic.factorise(self._lib, entries):
             self._lu = None

@@ -46,6 +46,7 @@ from ..protocol import (
 from ..scene import Scene, validate
 from ..stepping import StepControl
 from ..torque import Torque, TorqueProfile
+from .contact_update import use_contact_update
 from .head import HeadBoundary
 from .newton import HeldJacobianNewton, Turn
 from .outputs import FemOutputs
@@ -96,9 +97,13 @@ class FemModel:
         turn = Turn(self.space, self.measures.rotation_angle)
         residual = split or self.form.form.Apply
         inertia = None if split is None else (split.linear.mass, split.linear.inertia_coefficient)
-        # the compiled Jacobian where the contact is the rigid wall's (or none); the meshed wall's is NGSolve's
-        tangent = None if split is None or self.form.wall_residual is not None else partial(SplitJacobian, split)
-        args = (self.loader.load, turn, inertia, tangent, self.form.linearise)
+        # the compiled Jacobian where the contact is the rigid wall's (or none); the meshed wall's is NGSolve's.
+        # update: the held factors updated for the rigid wall's contact, which the Jacobian then leaves out
+        update = contact is not None and use_contact_update(scene)
+        tangent = None
+        if split is not None and self.form.wall_residual is None:
+            tangent = partial(SplitJacobian, split, with_contact=not update)
+        args = (self.loader.load, turn, inertia, tangent, self.form.linearise, update)
         self.newton = HeldJacobianNewton(self.form.form, residual, self.space, *args)
         self.time = 0.0
         self._state = self._start_state()

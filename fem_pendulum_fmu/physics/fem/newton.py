@@ -15,6 +15,11 @@ pendulum's held Jacobian contracted too slowly after one step (its stiffness
 is 65 times its inertia at 1 ms steps) and was re-assembled in 228 of 330
 steps; with it, in 35 (docs/fem.md, "Profile and speed-up").
 
+On soft bodies with the compiled rigid-wall contact the held Jacobian leaves
+the contact out, and each iteration adds the contact's own Jacobian at the
+iterate by a low-rank update of the held factors (fem/contact_update.py): a
+contact set that changes needs no new Jacobian.
+
 The solver is given each step's inputs as a value (`StepLoad`, loaded into the
 step form before the solve). Where the Jacobian was assembled (`JacobianPoint`,
 fem/step_load.py) is part of the model's state, so that a restored model
@@ -35,6 +40,7 @@ import scipy.sparse as sp
 from ngsolve import GridFunction
 
 from .. import native
+from .contact_update import ContactUpdate
 from .iteration import FusedIteration
 from .lu import HeldFactor
 from .residual import SplitResidual
@@ -164,6 +170,7 @@ class HeldJacobianNewton:
         inertia: Inertia | None = None,
         tangent: Tangent | None = None,
         linearise: Callable[[ngs.BaseVector], None] | None = None,
+        contact_update: bool = False,
     ):
         self.form = form  # the ngsolve BilinearForm of the step: its linearisation is the Jacobian
         # linearise(w): form.mat = the form's linearisation at w (StepForm.linearise)
@@ -192,6 +199,12 @@ class HeldJacobianNewton:
             vectors = (self._res_np, self._turned_np, self._corr_np, self._w_np)
             self._split = residual
             self._fused = FusedIteration(self._lib, residual, turn.kernel_args, self._factor, vectors)
+        # contact_update: the held Jacobian, assembled without the rigid wall's contact (the tangent's
+        # with_contact False), is updated for it in each iteration (fem/contact_update.py)
+        self._contact_update: ContactUpdate | None = None
+        contact = None if self._split is None else self._split.compiled_contact
+        if contact_update and self._fused is not None and self._jacobian is not None and contact is not None:
+            self._contact_update = ContactUpdate(contact, self._factor, len(self._w_np), self._fused)
         self.counts = NewtonCounts()
         self.held: JacobianPoint | None = None
         self.ready = False  # the held Jacobian is assembled and factorised (False after a restore)
@@ -233,8 +246,7 @@ class HeldJacobianNewton:
         turn = 0.0 if self.held is None else self._mid_angle(step.u0, guess) - self._held_angle(self.held)
         last, tol, refreshes = math.inf, NEWTON_RTOL * scale + 1e-15, 0
         fused, split = self._fused, self._split
-        if fused is not None:
-            fused.prepare(turn)
+        self._prepare(turn)
         for it in range(NEWTON_MAX_IT):
             if refresh:
                 if refreshes == MAX_REFRESHES:
@@ -243,8 +255,7 @@ class HeldJacobianNewton:
                 self._refresh(step)
                 refresh = False
                 turn = 0.0
-                if fused is not None:
-                    fused.prepare(turn)
+                self._prepare(turn)
             if fused is not None and split is not None:
                 size = fused.iterate(split.fused_contact(self.w.vec, res))
             else:
@@ -258,6 +269,13 @@ class HeldJacobianNewton:
             refresh = too_slow(size, last, tol, NEWTON_MAX_IT - it - 1)
             last = size
         return None
+
+    def _prepare(self, turn: float) -> None:
+        """The fused iteration's inputs for iterations from here with the held Jacobian turned by `turn`."""
+        if self._fused is not None:
+            self._fused.prepare(turn)
+        if self._contact_update is not None:
+            self._contact_update.prepare()
 
     def _mid_angle(self, u0: np.ndarray, u1: np.ndarray) -> float:
         """The pendulum's angle halfway through a step from u0 to (about) u1. The step form's Jacobian

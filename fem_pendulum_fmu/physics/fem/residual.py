@@ -416,6 +416,11 @@ class SplitResidual:
         return form.mat
 
     @property
+    def compiled_contact(self) -> RigidContactKernel | None:
+        """The rigid wall's compiled term, where it is used."""
+        return self._compiled
+
+    @property
     def compiled_contact_address(self) -> int:
         """The compiled term's struct for the fused iteration (fem/iteration.py); 0 without one."""
         return 0 if self._compiled is None else self._compiled.address

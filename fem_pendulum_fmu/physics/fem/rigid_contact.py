@@ -8,7 +8,8 @@ over the head boundary's Gauss points of the form's own rule (fe_boundary.head_p
 the discrete-gradient force of contact_law.py from the step's start position to
 the iterate's, times the test functions there (fem/head.py's trace matrix), the
 point's ds weight and the thickness. The kernel makes it on the points of the
-contact set's elements only. The form stays the source of the contact Jacobian.
+contact set's elements only. Its Jacobian at the points (`stiffness`) updates the solver's held
+factors (fem/contact_update.py); the form's linearisation serves where the kernels are not built.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import ctypes
 
 import ngsolve as ngs
 import numpy as np
+import scipy.sparse as sp
 from ngsolve import specialcf
 
 from .. import native
@@ -89,6 +91,24 @@ class RigidContactKernel:
     def apply(self, w: np.ndarray, res: np.ndarray) -> bool:
         """res = the term at w (float64 arrays over the solver's unknowns, displacements first)."""
         return bool(self._lib.femp_rigid_contact(self.address, w.ctypes.data, len(res), res.ctypes.data))
+
+    @property
+    def points(self) -> np.ndarray:
+        """The listed points (the contact set's elements' points), indices into the head's points."""
+        return self._points
+
+    @property
+    def trace(self) -> sp.csr_matrix:
+        """E: the head points' positions X + E u, 2P rows (x components, then y) over the solver's unknowns."""
+        return self._head.trace
+
+    def stiffness(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(c, gx, gy) at the listed points for w: the term's Jacobian is c g g^T in each point's position
+        (femp_rigid_contact_stiffness)."""
+        n = len(self._points)
+        out = np.empty((3, n))
+        self._lib.femp_rigid_contact_stiffness(self.address, w.ctypes.data, *(row.ctypes.data for row in out))
+        return out[0], out[1], out[2]
 
     def resultant(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
         """The force of the wall on the pendulum that the term applies from the points' positions p0 to p1

@@ -88,3 +88,30 @@ void femp_rigid_contact_resultant(const struct femp_rigid_contact *c, const doub
     out[0] = fx;
     out[1] = fy;
 }
+
+/* The term's stiffness at the listed points for the held Jacobian's contact update (fem/contact_update.py):
+ * for the j-th listed point, c[j] = w d/dd1 of the discrete gradient (Phi(d1) - Phi(d0)) / (d1 - d0) at the
+ * displacement u (the midpoint's k/2 where d1 ~ d0), and (gx[j], gy[j]) the gradient of d1 at its end position,
+ * so that the term's Jacobian there is c g g^T in the point's position (Gonzalez's correction and the
+ * turning of the normal left out: both vanish while a point stays on one face's side). */
+void femp_rigid_contact_stiffness(const struct femp_rigid_contact *c, const double *u, double *cj, double *gx,
+                                  double *gy) {
+    int P = c->P;
+    for (int j = 0; j < c->n; ++j) {
+        int i = c->points[j];
+        double x1 = c->X[i] + row_dot(c->indptr, c->indices, c->data, i, u);
+        double y1 = c->X[P + i] + row_dot(c->indptr, c->indices, c->data, P + i, u);
+        double ux, uy, mx, my;
+        double d0 = depth(c->block, c->p0[i], c->p0[P + i], &ux, &uy);
+        double d1 = depth(c->block, x1, y1, &gx[j], &gy[j]);
+        double dm = depth(c->block, 0.5 * (c->p0[i] + x1), 0.5 * (c->p0[P + i] + y1), &mx, &my);
+        double jump = d1 - d0, k = c->k, s;
+        if (jump * jump - 1e-28 > 0.0) {
+            double slope1 = d1 > 0.0 ? k * d1 : 0.0;
+            s = (slope1 * jump - (penalty(d1, k) - penalty(d0, k))) / (jump * jump);
+        } else {
+            s = dm > 0.0 ? 0.5 * k : 0.0;
+        }
+        cj[j] = c->weights[i] * s;
+    }
+}

@@ -21,8 +21,17 @@ class SplitJacobian:
     of the full form took 4.9-5.7 ms on the rubber scene's mesh, nearly all of it the stress term
     (docs/fem.md, "Jacobians and factors in the kernel")."""
 
-    def __init__(self, split: SplitResidual, free: np.ndarray, indptr: np.ndarray, indices: np.ndarray):
-        self._split = split
+    def __init__(
+        self,
+        split: SplitResidual,
+        free: np.ndarray,
+        indptr: np.ndarray,
+        indices: np.ndarray,
+        with_contact: bool = True,
+    ):
+        """with_contact False: the contact term left out (the solver updates the held Jacobian for it,
+        fem/contact_update.py)."""
+        self._split, self._with_contact = split, with_contact
         n = len(indptr) - 1
         self._keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr)) * n + indices  # column, then row
         self._local = np.full(split.linear.mass.shape[0], -1, dtype=np.int64)
@@ -62,7 +71,7 @@ class SplitJacobian:
         if half_torque != 0.0:
             out += half_torque * self._torque
         self._split.elastic.add_tangent(np.ascontiguousarray(w.FV().NumPy()), self._slots, out)
-        contact = self._split.contact_linearisation(w)
+        contact = self._split.contact_linearisation(w) if self._with_contact else None
         if contact is not None:
             rows, cols, vals = (np.array(a) for a in contact.COO())
             if self._contact_at is None or not np.array_equal(self._contact_at[0], rows * self._n + cols):
