@@ -68,6 +68,12 @@ def test_contact_stiffness_is_the_terms_derivative() -> None:
         contact.apply(w - step, minus)
         column = (plus - minus) / (2.0 * h)
         assert np.max(np.abs(column - mine[:, j])) <= 1e-6 * np.max(np.abs(mine))
+    # arrays sized for another contact set are left alone (the kernel's guard against writing past them)
+    n = len(contact.points)
+    out = np.full((3, n + 1), 7.0)
+    rows = (row.ctypes.data for row in out)
+    assert native.kernels().femp_rigid_contact_stiffness(contact.address, w.ctypes.data, n + 1, *rows) == 0
+    assert np.all(out == 7.0)
 
 
 def test_fused_iteration_solves_with_the_contacts_jacobian_added() -> None:

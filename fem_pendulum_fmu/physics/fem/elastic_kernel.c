@@ -490,8 +490,8 @@ struct femp_low_rank {
     double *last;                  /* c, gx, gy and the turn's cosine and sine M was made for (3 n + 2) */
     int made;                      /* 0: M is not made for the current G (contact_update.py resets it) */
 };
-void femp_rigid_contact_stiffness(const struct femp_rigid_contact *c, const double *u, double *cj, double *gx,
-                                  double *gy);
+int femp_rigid_contact_stiffness(const struct femp_rigid_contact *c, const double *u, int n, double *cj, double *gx,
+                                 double *gy);
 
 /* The iterations with a held Jacobian are a fixed-point map g(x) = x - corr(x) that contracts linearly;
  * the Anderson step combines the last iterates: x+ = g - sum_j gamma_j dg_j, with dg_j the differences of
@@ -602,7 +602,7 @@ static int low_rank_prepare(const struct femp_iteration *it, double cs, double s
     struct femp_low_rank *lr = it->low_rank;
     int m = lr->m, n = lr->n_points, pushed = 0;
     double *K = lr->K, *B = lr->B, *a = lr->y;
-    femp_rigid_contact_stiffness(it->contact, it->w, lr->c, lr->gx, lr->gy);
+    if (!femp_rigid_contact_stiffness(it->contact, it->w, n, lr->c, lr->gx, lr->gy)) return 0;
     if (lr->made && same_stiffness(lr, cs, sn)) return lr->made > 0; /* M as made at the last iterate */
     for (int j = 0; j < n; ++j) lr->last[j] = lr->c[j], lr->last[n + j] = lr->gx[j], lr->last[2 * n + j] = lr->gy[j];
     lr->last[3 * n] = cs, lr->last[3 * n + 1] = sn;

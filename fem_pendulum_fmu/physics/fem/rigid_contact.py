@@ -107,7 +107,7 @@ class RigidContactKernel:
         (femp_rigid_contact_stiffness)."""
         n = len(self._points)
         out = np.empty((3, n))
-        self._lib.femp_rigid_contact_stiffness(self.address, w.ctypes.data, *(row.ctypes.data for row in out))
+        self._lib.femp_rigid_contact_stiffness(self.address, w.ctypes.data, n, *(row.ctypes.data for row in out))
         return out[0], out[1], out[2]
 
     def resultant(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:

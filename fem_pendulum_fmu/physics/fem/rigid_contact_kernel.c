@@ -93,10 +93,12 @@ void femp_rigid_contact_resultant(const struct femp_rigid_contact *c, const doub
  * for the j-th listed point, c[j] = w d/dd1 of the discrete gradient (Phi(d1) - Phi(d0)) / (d1 - d0) at the
  * displacement u (the midpoint's k/2 where d1 ~ d0), and (gx[j], gy[j]) the gradient of d1 at its end position,
  * so that the term's Jacobian there is c g g^T in the point's position (Gonzalez's correction and the
- * turning of the normal left out: both vanish while a point stays on one face's side). */
-void femp_rigid_contact_stiffness(const struct femp_rigid_contact *c, const double *u, double *cj, double *gx,
-                                  double *gy) {
+ * turning of the normal left out: both vanish while a point stays on one face's side). n: the listed points
+ * the arrays hold; 0 (nothing written) if that is not the contact set's count, else 1. */
+int femp_rigid_contact_stiffness(const struct femp_rigid_contact *c, const double *u, int n, double *cj, double *gx,
+                                 double *gy) {
     int P = c->P;
+    if (c->n != n) return 0; /* the arrays are sized for another contact set: nothing written */
     for (int j = 0; j < c->n; ++j) {
         int i = c->points[j];
         double x1 = c->X[i] + row_dot(c->indptr, c->indices, c->data, i, u);
@@ -114,4 +116,5 @@ void femp_rigid_contact_stiffness(const struct femp_rigid_contact *c, const doub
         }
         cj[j] = c->weights[i] * s;
     }
+    return 1;
 }
