@@ -78,6 +78,11 @@ class ContactUpdate:
             self._iteration.low_rank(self._address)
             self._handed = True
 
+    @property
+    def in_use(self) -> bool:
+        """Whether the fused iteration has the update (a contact set and factors)."""
+        return self._handed
+
     def _for_set(self, points: np.ndarray) -> None:
         """V's unknowns (the columns of the points' rows of E), those rows on them, and the scratch."""
         trace = self._contact.trace
