@@ -14,9 +14,9 @@ Jacobian, assembled without the contact (SplitJacobian's with_contact), the
 correction of A + V K V^T is z - G M V^T z with z = A^-1 r, G = A^-1 V and
 M = (I + K V^T G)^-1 K. G takes one solve per unknown of V and is kept while
 the factors and the set stay (here); K and M are made in the kernel at each
-iterate whose stiffness differs from the last one's, the normals turned into
-the held Jacobian's frame (V holds both components of each node, so the turn
-maps it onto itself; elastic_kernel.c, low_rank_prepare and low_rank_update).
+iterate, the normals turned into the held Jacobian's frame (V holds both
+components of each node, so the turn maps it onto itself; elastic_kernel.c,
+low_rank_prepare and low_rank_update).
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ class _LowRank(ctypes.Structure):
     """struct femp_low_rank of fem/elastic_kernel.c, field for field."""
 
     _fields_ = [("m", _I), ("n_points", _I), ("dofs", _P), ("G", _P), ("S", _P), ("ex", _P), ("ey", _P)]
-    _fields_ += [(name, _P) for name in ("c", "gx", "gy", "K", "B", "y", "last")] + [("made", _I)]
+    _fields_ += [(name, _P) for name in ("c", "gx", "gy", "K", "B", "y")]
 
 
 def use_contact_update(scene: Scene) -> bool:
@@ -91,11 +91,11 @@ class ContactUpdate:
         m, n = len(dofs), len(points)
         ex, ey = (np.ascontiguousarray(rows[:, dofs].toarray()) for rows in (rows_x, rows_y))
         g, s = np.zeros((m, self._size)), np.zeros((m, m))
-        self._arrays = (dofs, g, s, ex, ey, np.zeros((3, n)), np.zeros((2, m, m)), np.zeros(2 * m), np.zeros(3 * n + 2))
-        dofs, g, s, ex, ey, stiffness, km, y, last = self._arrays
+        self._arrays = (dofs, g, s, ex, ey, np.zeros((3, n)), np.zeros((2, m, m)), np.zeros(2 * m))
+        dofs, g, s, ex, ey, stiffness, km, y = self._arrays
         st = self._struct
         st.m, st.n_points, st.dofs, st.G, st.S = m, n, dofs.ctypes.data, g.ctypes.data, s.ctypes.data
-        st.ex, st.ey, st.y, st.last = ex.ctypes.data, ey.ctypes.data, y.ctypes.data, last.ctypes.data
+        st.ex, st.ey, st.y = ex.ctypes.data, ey.ctypes.data, y.ctypes.data
         st.c, st.gx, st.gy = (row.ctypes.data for row in stiffness)
         st.K, st.B = (block.ctypes.data for block in km)
         self._version = -1
@@ -110,4 +110,3 @@ class ContactUpdate:
             unit[dof] = 0.0
         s[:] = g[:, dofs].T
         self._version = self._factor.version
-        self._struct.made = 0

@@ -487,8 +487,6 @@ struct femp_low_rank {
     const double *G, *S, *ex, *ey; /* G: m rows of size; S: m x m; ex, ey: n_points x m (all by rows) */
     double *c, *gx, *gy;           /* n_points each */
     double *K, *B, *y;             /* m x m, m x m, 2 m */
-    double *last;                  /* c, gx, gy and the turn's cosine and sine M was made for (3 n + 2) */
-    int made;                      /* 0: M is not made for the current G (contact_update.py resets it) */
 };
 int femp_rigid_contact_stiffness(const struct femp_rigid_contact *c, const double *u, int n, double *cj, double *gx,
                                  double *gy);
@@ -587,15 +585,6 @@ static void csr_axpy(const struct femp_csr *m, double a, const double *x, double
     femp_csr_axpy(m->n, m->indptr, m->indices, m->data, a, x, out);
 }
 
-/* whether the stiffness at the listed points and the turn are those M was made for: a point pushed on both
- * ends of the step by the same face keeps its c (k/2 times its weight) and its normal */
-static int same_stiffness(const struct femp_low_rank *lr, double cs, double sn) {
-    int n = lr->n_points;
-    for (int j = 0; j < n; ++j)
-        if (lr->c[j] != lr->last[j] || lr->gx[j] != lr->last[n + j] || lr->gy[j] != lr->last[2 * n + j]) return 0;
-    return cs == lr->last[3 * n] && sn == lr->last[3 * n + 1];
-}
-
 /* M of struct femp_low_rank at the iterate w, into lr->K, the normals turned into the held frame by the angle
  * whose cosine and sine are cs and sn; 0 where no listed point is pushed (no update) */
 static int low_rank_prepare(const struct femp_iteration *it, double cs, double sn) {
@@ -603,10 +592,6 @@ static int low_rank_prepare(const struct femp_iteration *it, double cs, double s
     int m = lr->m, n = lr->n_points, pushed = 0;
     double *K = lr->K, *B = lr->B, *a = lr->y;
     if (!femp_rigid_contact_stiffness(it->contact, it->w, n, lr->c, lr->gx, lr->gy)) return 0;
-    if (lr->made && same_stiffness(lr, cs, sn)) return lr->made > 0; /* M as made at the last iterate */
-    for (int j = 0; j < n; ++j) lr->last[j] = lr->c[j], lr->last[n + j] = lr->gx[j], lr->last[2 * n + j] = lr->gy[j];
-    lr->last[3 * n] = cs, lr->last[3 * n + 1] = sn;
-    lr->made = -1;
     for (int i = 0; i < m * m; ++i) K[i] = 0.0;
     for (int j = 0; j < n; ++j) {
         double cj = lr->c[j];
@@ -649,7 +634,6 @@ static int low_rank_prepare(const struct femp_iteration *it, double cs, double s
             for (int k = r + 1; k < m; ++k) sum -= B[r * m + k] * K[k * m + q];
             K[r * m + q] = sum / B[r * m + r];
         }
-    lr->made = 1;
     return 1;
 }
 
