@@ -232,19 +232,6 @@ void femp_turn(int n, const int *ix, const int *iy, double c, double s, double *
     }
 }
 
-/* corr = Q(d) A^-1 Q(-d) res, Q(d) turning the pairs (ix, iy) by the angle d (cos d = c, sin d = s);
- * the LU arguments as femp_lu_solve's; turned is scratch of the size of res */
-void femp_turned_solve(int nturn, const int *ix, const int *iy, double c, double s, int n, const int *free_dofs,
-                       const double *scale, const int *perm_r, const int *perm_c, const int *Lp, const int *Li,
-                       const double *Lx, const int *Up, const int *Ui, const double *Ux, const double *u_diag,
-                       const int *sn, const double *Ur, const double *res, double *turned, double *work, double *corr,
-                       int size) {
-    for (int i = 0; i < size; ++i) turned[i] = res[i];
-    femp_turn(nturn, ix, iy, c, -s, turned);
-    femp_lu_solve(n, free_dofs, scale, perm_r, perm_c, Lp, Li, Lx, Up, Ui, Ux, u_diag, sn, Ur, turned, work, corr);
-    femp_turn(nturn, ix, iy, c, s, corr);
-}
-
 /* w -= corr over n entries; returns max |corr| over the first n_max entries, or -1 if any is not finite */
 double femp_update(int n, int n_max, const double *corr, double *w) {
     double biggest = 0.0;
@@ -651,6 +638,35 @@ static void low_rank_update(const struct femp_iteration *it, double *z) {
     }
 }
 
+/* corr = Q(d) A^-1 Q(-d) res (with turn; A^-1 res without), Q(d) turning the pairs (ix, iy) by the angle d
+ * (cos d = c, sin d = s), A^-1 updated for the contact between the solve and the turn back where `update` is
+ * given (low_rank_update); turned is scratch of the size of res */
+static void held_frame_solve(const struct femp_factors *f, int nturn, const int *ix, const int *iy, int turn,
+                             double c, double s, const double *res, double *turned, double *corr, int size,
+                             const struct femp_iteration *update) {
+    const double *rhs = res;
+    if (turn) {
+        for (int i = 0; i < size; ++i) turned[i] = res[i];
+        femp_turn(nturn, ix, iy, c, -s, turned);
+        rhs = turned;
+    }
+    femp_lu_solve(f->n, f->free_dofs, f->scale, f->perm_r, f->perm_c, f->Lp, f->Li, f->Lx, f->Up, f->Ui, f->Ux,
+                  f->u_diag, f->sn, f->Ur, rhs, f->work, corr);
+    if (update) low_rank_update(update, corr);
+    if (turn) femp_turn(nturn, ix, iy, c, s, corr);
+}
+
+/* corr = Q(d) A^-1 Q(-d) res, the held_frame_solve of the unfused path (fem/newton.py); the LU arguments as
+ * femp_lu_solve's */
+void femp_turned_solve(int nturn, const int *ix, const int *iy, double c, double s, int n, const int *free_dofs,
+                       const double *scale, const int *perm_r, const int *perm_c, const int *Lp, const int *Li,
+                       const double *Lx, const int *Up, const int *Ui, const double *Ux, const double *u_diag,
+                       const int *sn, const double *Ur, const double *res, double *turned, double *work, double *corr,
+                       int size) {
+    struct femp_factors f = {n, free_dofs, scale, perm_r, perm_c, Lp, Li, Lx, Up, Ui, Ux, u_diag, sn, Ur, work};
+    held_frame_solve(&f, nturn, ix, iy, 1, c, s, res, turned, corr, size, 0);
+}
+
 /* res_holds_contact: 1 if res holds the contact term, 0 if there is none, 2 to make the compiled rigid-wall
  * term here (fem/rigid_contact.py) */
 double femp_iterate(struct femp_iteration *it, int res_holds_contact, int turn, double c, double s) {
@@ -671,16 +687,7 @@ double femp_iterate(struct femp_iteration *it, int res_holds_contact, int turn, 
                              y->mu, y->n_gauss, y->gauss_s, y->gauss_w, res);
     }
     int update = it->low_rank != 0 && it->contact != 0 && low_rank_prepare(it, c, s);
-    const struct femp_factors *f = &it->lu;
-    const double *rhs = res;
-    if (turn) {
-        for (int i = 0; i < size; ++i) it->turned[i] = res[i];
-        femp_turn(it->nturn, it->ix, it->iy, c, -s, it->turned);
-        rhs = it->turned;
-    }
-    femp_lu_solve(f->n, f->free_dofs, f->scale, f->perm_r, f->perm_c, f->Lp, f->Li, f->Lx, f->Up, f->Ui, f->Ux,
-                  f->u_diag, f->sn, f->Ur, rhs, f->work, it->corr);
-    if (update) low_rank_update(it, it->corr);
-    if (turn) femp_turn(it->nturn, it->ix, it->iy, c, s, it->corr);
+    held_frame_solve(&it->lu, it->nturn, it->ix, it->iy, turn, c, s, res, it->turned, it->corr, size,
+                     update ? it : 0);
     return secant_step(it);
 }
