@@ -14,6 +14,12 @@ is then submitted once more, and if that dies too it gets status error with
 the reason. The local cluster's scheduler is told not to retry on its own
 (distributed.scheduler.allowed-failures = 0), so "once" is exact there; a
 running scheduler applies its own allowed-failures first (default 3).
+
+The local cluster's worker processes start with one thread for every library that starts a pool
+of its own (ONE_THREAD, set before each process starts, so before the libraries load): a sample
+runs on one core, and N workers on N cores do not compete for them. A variable the environment
+already sets is kept (the user's own count). NGSolve's TaskManager is the sample's model.threads
+(default 1); NGS_NUM_THREADS is its default wherever else one starts.
 """
 
 from __future__ import annotations
@@ -45,6 +51,16 @@ from .samples import Sample
 from .worker import FmuPlugin, run_loop_on_worker, run_on_worker
 
 ATTEMPTS = 2  # a sample whose worker dies is run once more, then marked
+# the thread counts a local cluster's workers start with (1 unless the environment sets one): OpenMP, OpenBLAS,
+# MKL, Apple's Accelerate, numexpr, NGSolve's TaskManager
+ONE_THREAD = (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+    "NGS_NUM_THREADS",
+)
 
 
 @dataclass(frozen=True)
@@ -79,23 +95,50 @@ def _all_outputs(fmu: Path) -> tuple[str, ...]:
     return tuple(v.name for v in read_model_description(str(fmu)).modelVariables if v.causality == "output")
 
 
+def worker_environment() -> dict[str, str]:
+    """The variables a local cluster's worker processes start with: Dask's own (distributed.nanny.pre-spawn-environ)
+    and ONE_THREAD at 1, each as the environment sets it if it does."""
+    spawn = dask.config.get("distributed.nanny.pre-spawn-environ") or {}
+    own = {name: str(value) for name, value in spawn.items() if value is not None}
+    return {**own, **{name: os.environ.get(name, "1") for name in ONE_THREAD}}
+
+
+@contextlib.contextmanager
+def _environment_kept(names: list[str]) -> Iterator[None]:
+    """os.environ's `names` as they were, afterwards: Dask's nanny sets the workers' variables in this process
+    too, before it starts each worker."""
+    before = {name: os.environ.get(name) for name in names}
+    try:
+        yield
+    finally:
+        for name, value in before.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
 @contextlib.contextmanager
 def connect(settings: SweepSettings) -> Iterator[Client]:
-    """A client of the running scheduler, or of a local cluster on 127.0.0.1 that is closed afterwards."""
+    """A client of the running scheduler, or of a local cluster on 127.0.0.1 that is closed afterwards (its
+    workers with worker_environment(); this process's environment as it was once it closed)."""
     if settings.scheduler:
         with Client(settings.scheduler) as client:
             yield client
         return
-    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
-        cluster = LocalCluster(
-            n_workers=settings.workers or os.cpu_count() or 1,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address=None,
-        )
-    with cluster, Client(cluster) as client:
-        yield client
+    environment = worker_environment()
+    config = {"distributed.scheduler.allowed-failures": 0, "distributed.nanny.pre-spawn-environ": environment}
+    with _environment_kept([*environment, "PYTHONHASHSEED"]):
+        with dask.config.set(config):
+            cluster = LocalCluster(
+                n_workers=settings.workers or os.cpu_count() or 1,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+            )
+        with cluster, Client(cluster) as client:
+            yield client
 
 
 FIGURE_NAMES = tuple(asdict(Figures()))  # an open-loop sample's figure columns; a loop sample's: METRIC_NAMES
