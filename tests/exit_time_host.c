@@ -1,14 +1,18 @@
 /* The C library of a Python host that frees its FMU instances only at exit, after the Python has been finalised.
  *
  * Build:  cc -shared -fPIC -I<fmpy>/c-code exit_time_host.c -ldl -o exit_time_host.so
- * Use:    from Python (ctypes), exit_time_host_start(MODE, PENDULUM_FOLDER, PENDULUM_GUID, PID_FOLDER, PID_GUID,
- *         VR_FIDELITY, FIDELITY), then let the script end normally: tests/exit_time_host.py, for
- *         tests/test_exit_time_host.py.
+ * Use:    from Python (ctypes; tests/exit_time_host.py, for tests/test_exit_time_host.py), either
+ *         exit_time_host_start(MODE, PENDULUM_FOLDER, PENDULUM_GUID, PID_FOLDER, PID_GUID, VR_FIDELITY, FIDELITY),
+ *         or, for instances the script made itself (through fmpy, with fmpy's logger),
+ *         exit_time_host_begin(MODE) before it instantiates, exit_time_host_hold(LABEL, INSTANCE, TERMINATE, FREE)
+ *         for each instance and exit_time_host_end() after; then let the script end normally.
  *
- * exit_time_host_start loads the binaries of the two unzipped FMUs (FemPendulum, PidController), instantiates,
- * initialises (the pendulum with model.fidelity = FIDELITY) and steps one instance of each (10 steps of 1 ms),
- * and leaves them alive: they are terminated and freed at exit, as a C/C++ library's exit-time destructors would.
- * MODE says from where:
+ * exit_time_host_start loads the binaries of the two unzipped FMUs (FemPendulum, PidController), instantiates
+ * (with this library's logger, which prints to stderr), initialises (the pendulum with model.fidelity = FIDELITY)
+ * and steps one instance of each (10 steps of 1 ms), and leaves them alive: they are terminated and freed at
+ * exit, as a C/C++ library's exit-time destructors would. exit_time_host_hold keeps an instance of an FMI 2.0 or
+ * FMI 3.0 binary (fmi2Terminate and fmi3Terminate, fmi2FreeInstance and fmi3FreeInstance have the same C
+ * signature) to be terminated and freed at exit in the same way. MODE says from where:
  *   "atexit-last"   an atexit() handler registered after the instances exist (it runs before any handler the
  *                   FMU binaries registered while instantiating),
  *   "atexit-first"  an atexit() handler registered before (it runs after theirs),
@@ -17,7 +21,9 @@
  * A Python script's interpreter is finalised when the script ends, before exit() runs any of these. The
  * handler prints one line to stderr:
  *   exit-time-host <atexit|destructor>: python initialised <0|1|-1>; PidController terminate <status> freed; ...
- * (-1: no Py_IsInitialized in the process). Returns 0, or the number of the step that failed (1 to 4). */
+ * (-1: no Py_IsInitialized in the process). exit_time_host_start returns 0, or the number of the step that
+ * failed (1 to 4); exit_time_host_begin 0, or 1 for an unknown MODE; exit_time_host_hold 0, or 1 when it holds
+ * too many instances. */
 #include <dlfcn.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -26,16 +32,20 @@
 
 #include "fmi2Functions.h"
 
+typedef int TerminateFunction(void *instance);   /* fmi2Terminate or fmi3Terminate */
+typedef void FreeFunction(void *instance);       /* fmi2FreeInstance or fmi3FreeInstance */
+
 typedef struct {
-    const char *label;
-    fmi2Component component;
-    fmi2TerminateTYPE *terminate;
-    fmi2FreeInstanceTYPE *free_instance;
+    char label[64];
+    void *component;
+    TerminateFunction *terminate;
+    FreeFunction *free_instance;
 } Held;
 
-static Held held[2];
+#define MAX_HELD 4
+static Held held[MAX_HELD];
 static int n_held = 0;
-static int free_in_destructor = 0;
+static int free_in_destructor = 0, register_last = 0;
 
 static void log_message(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String category,
                         fmi2String message, ...) {
@@ -93,9 +103,9 @@ static int start_one(const char *label, const char *folder, const char *guid, in
     fmi2SetIntegerTYPE *set_integer = (fmi2SetIntegerTYPE *)dlsym(lib, "fmi2SetInteger");
     fmi2DoStepTYPE *do_step = (fmi2DoStepTYPE *)dlsym(lib, "fmi2DoStep");
     Held *h = &held[n_held];
-    h->label = label;
-    h->terminate = (fmi2TerminateTYPE *)dlsym(lib, "fmi2Terminate");
-    h->free_instance = (fmi2FreeInstanceTYPE *)dlsym(lib, "fmi2FreeInstance");
+    snprintf(h->label, sizeof h->label, "%s", label);
+    h->terminate = (TerminateFunction *)dlsym(lib, "fmi2Terminate");
+    h->free_instance = (FreeFunction *)dlsym(lib, "fmi2FreeInstance");
     if (!instantiate || !setup || !enter || !exit_init || !set_integer || !do_step || !h->terminate ||
         !h->free_instance) {
         fprintf(stderr, "%s lacks an fmi2 function\n", binary);
@@ -115,14 +125,34 @@ static int start_one(const char *label, const char *folder, const char *guid, in
     return 0;
 }
 
+int exit_time_host_begin(const char *mode) {
+    int first = strcmp(mode, "atexit-first") == 0;
+    register_last = strcmp(mode, "atexit-last") == 0;
+    free_in_destructor = strcmp(mode, "destructor") == 0;
+    if (!first && !register_last && !free_in_destructor) return 1;
+    if (first) atexit(at_exit);
+    return 0;
+}
+
+int exit_time_host_hold(const char *label, void *component, void *terminate, void *free_instance) {
+    if (n_held == MAX_HELD) return 1;
+    Held *h = &held[n_held++];
+    snprintf(h->label, sizeof h->label, "%s", label);
+    h->component = component;
+    h->terminate = (TerminateFunction *)terminate;
+    h->free_instance = (FreeFunction *)free_instance;
+    return 0;
+}
+
+void exit_time_host_end(void) {
+    if (register_last) atexit(at_exit);
+}
+
 int exit_time_host_start(const char *mode, const char *pendulum, const char *pendulum_guid, const char *pid,
                          const char *pid_guid, int fidelity_vr, int fidelity) {
-    int first = strcmp(mode, "atexit-first") == 0, last = strcmp(mode, "atexit-last") == 0;
-    free_in_destructor = strcmp(mode, "destructor") == 0;
-    if (!first && !last && !free_in_destructor) return 1;
-    if (first) atexit(at_exit);
+    if (exit_time_host_begin(mode) != 0) return 1;
     int failed = start_one("FemPendulum", pendulum, pendulum_guid, fidelity_vr, fidelity);
     if (!failed) failed = start_one("PidController", pid, pid_guid, -1, 0);
-    if (last) atexit(at_exit);
+    exit_time_host_end();
     return failed;
 }

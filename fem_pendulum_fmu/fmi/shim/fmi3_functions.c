@@ -58,8 +58,10 @@ static const char *bad_arguments(fmi3String name, fmi3String token, fmi3String r
     return NULL;
 }
 
-/* A message before an instance exists: through the host's logger, else on stderr. */
+/* A message before an instance exists: through the host's logger, else on stderr; nothing once the process's
+ * Python has ended (python_runtime.h python_ended). */
 static void early_log(fmi3String name, fmi3InstanceEnvironment env, fmi3LogMessageCallback log, const char *text) {
+    if (python_ended()) return; /* the callback may be Python code (python_runtime.h) */
     if (log != NULL)
         log(env, fmi3Error, "logStatusError", text);
     else

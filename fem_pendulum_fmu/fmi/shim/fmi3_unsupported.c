@@ -9,6 +9,7 @@
 #include "call_frame.h"
 #include "fmi3Functions.h"
 #include "fmi3_shim.h"
+#include "python_runtime.h"
 
 fmi3Status not_provided(fmi3Instance instance, const char *function) {
     Instance *inst = (Instance *)instance;
@@ -22,6 +23,7 @@ static void instantiation_refused(fmi3String name, fmi3InstanceEnvironment env, 
     char text[512];
     snprintf(text, sizeof text, "%s refused: this FMU is for co-simulation only (fmi3InstantiateCoSimulation)",
              function);
+    if (python_ended()) return; /* the callback may be Python code (python_runtime.h) */
     if (log != NULL)
         log(env, fmi3Error, "logStatusError", text);
     else

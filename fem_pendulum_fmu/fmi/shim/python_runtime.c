@@ -80,6 +80,29 @@ int python_alive(void) {
     return py.IsInitialized != NULL && py.IsInitialized() && !(py.IsFinalizing != NULL && py.IsFinalizing());
 }
 
+/* Whether a Python runs now, asked of the bound API or, before it is bound, of whatever libpython the process has. */
+static int python_running(void) {
+    if (py.IsInitialized != NULL) return python_alive();
+    int (*initialised)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsInitialized");
+    int (*finalizing)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsFinalizing");
+    if (finalizing == NULL) finalizing = (int (*)(void))dlsym(RTLD_DEFAULT, "_Py_IsFinalizing");
+    return initialised != NULL && initialised() && !(finalizing != NULL && finalizing());
+}
+
+static int python_has_run = 0; /* a Python ran in this process while this binary was loaded */
+
+__attribute__((constructor)) static void note_host_python(void) {
+    if (python_running()) __atomic_store_n(&python_has_run, 1, __ATOMIC_RELAXED);
+}
+
+int python_ended(void) {
+    if (python_running()) {
+        __atomic_store_n(&python_has_run, 1, __ATOMIC_RELAXED);
+        return 0;
+    }
+    return __atomic_load_n(&python_has_run, __ATOMIC_RELAXED);
+}
+
 /* The value of `key=` in resources/python_environment.txt, or "" (written by fmi/builder.py). */
 static void recorded(const char *resources, const char *key, char *value, size_t n) {
     char path[4096], line[4096];

@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "python_runtime.h"
 #include "slave.h"
 
 static __thread int error_reported = 0;
@@ -33,6 +34,7 @@ int error_pending(void) { return error_reported; }
 
 void log_to_host(const fmi2CallbackFunctions *callbacks, const char *instance, fmi2Status status,
                  const char *category, const char *message) {
+    if (python_ended()) return; /* the logger may be Python code: the call's status says enough */
     char format[8192];
     size_t k = 0;
     for (const char *m = message; *m && k + 2 < sizeof format; m++) {

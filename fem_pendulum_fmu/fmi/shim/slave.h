@@ -38,7 +38,8 @@ typedef struct {
     Fmi3Host fmi3;
 } Instance;
 
-/* Log through the host's logger (the message is passed as a format string with each '%' doubled). */
+/* Log through the host's logger (the message is passed as a format string with each '%' doubled); without one on
+ * stderr. Nothing at all once the process's Python has ended: the logger may be Python (python_runtime.h). */
 void log_to_host(const fmi2CallbackFunctions *callbacks, const char *instance, fmi2Status status,
                  const char *category, const char *message);
 void log_error(Instance *inst, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
