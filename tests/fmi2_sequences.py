@@ -49,9 +49,11 @@ model as before it):
   least the reported size writes exactly that many bytes, a smaller buffer is fmi2Error; deserialising
   refuses junk, empty, truncated or foreign bytes, and, in an initialised instance, a state taken with
   other parameter values; a deserialised state serialises back identically; setFMUstate of a state
-  taken with other parameters, or before initialisation, is refused by an initialised instance; an
-  instance without a model takes any state of the FMU, and a state with a model fixes the parameters
-  (only the same values can be set afterwards) and brings its time. The PID FMU declares
+  taken with other parameters, or before initialisation, is refused by an initialised instance, and of a
+  state taken in terminated by any instance not terminated; an instance without a model (instantiated,
+  initializationMode) takes a state taken before initialisation and stays where it is, with the state's
+  parameters, inputs and time, and a state taken after initialisation puts it in stepComplete with the
+  state's parameters, model and time (docs/fmu.md, "Setting an FMU state"). The PID FMU declares
   canGetAndSetFMUstate="false": all six state functions answer fmi2Error there.
 - getBooleanStatus(fmi2Terminated) is fmi2True in terminated, and after the same step (time, size,
   torque) was discarded twice running (a deterministic model repeats a Discard for ever); the
@@ -127,6 +129,7 @@ STATUS_FUNCTIONS = {
 TYPE_COMMANDS = {"Real": "real", "Integer": "int", "Boolean": "bool", "String": "string"}
 FMI_NAMES = {
     "setup": "fmi2SetupExperiment",
+    "setstate": "fmi2SetFMUstate",
     "enter": "fmi2EnterInitializationMode",
     "exit": "fmi2ExitInitializationMode",
     "terminate": "fmi2Terminate",
@@ -448,6 +451,7 @@ class Snapshot:
     outputs: dict[str, Any]
     dubious: bool
     rates: dict[tuple[str, int], float] = field(default_factory=dict)
+    taken_in: str = STEP  # the instance's state when it was taken
 
 
 @dataclass
@@ -481,7 +485,7 @@ class Instance:
 
     def snapshot(self) -> Snapshot:
         return Snapshot(
-            self.has_model, dict(self.values), self.time, dict(self.outputs), self.dubious, dict(self.rates)
+            self.has_model, dict(self.values), self.time, dict(self.outputs), self.dubious, dict(self.rates), self.state
         )
 
 
@@ -1167,12 +1171,20 @@ class Oracle:
         h = self.handle(ptr)
         snap = h.snapshot if h is not None else None
         kind = "plain"  # or "build": a model built from the state in an instance that had none
+        table = None  # the state machine's refusal (FMU_STATE_RESTORES): its log names the instance's state
         if no:
             allowed, why = REFUSED, f"fmi2SetFMUstate: {no}"
         elif self._unsure(ptr):
             allowed, why = ANY, f"fmi2SetFMUstate of {self._describe_ptr(inst, ptr)}"
         elif not self.owned_live(inst, ptr) or snap is None:
             allowed, why = REFUSED, f"fmi2SetFMUstate of {self._describe_ptr(inst, ptr)}"
+        elif snap.taken_in == TERMINATED and inst.state != TERMINATED:
+            allowed, why, table = (
+                REFUSED,
+                f"fmi2SetFMUstate of a state taken in terminated, in {inst.state}",
+                inst.state,
+            )
+            self.stats["set of a state taken in terminated refused"] += 1
         elif inst.has_model and snap.has_model and not self._same_parameters(inst, snap):
             allowed, why = (
                 REFUSED,
@@ -1186,7 +1198,7 @@ class Oracle:
         else:
             allowed, why = SUCCESS, f"fmi2SetFMUstate of a live state in {inst.state}"
             kind = "build" if snap.has_model and not inst.has_model else "plain"
-        step, status = self._simple(call, send, line, allowed, why)
+        step, status = self._simple(call, send, line, allowed, why, table)
         if allowed != REFUSED and status in SUCCESS and snap is not None:
             if allowed == ANY:
                 inst.lenient = True
@@ -1194,6 +1206,8 @@ class Oracle:
                 inst.has_model, inst.values, inst.time = True, dict(snap.values), snap.time
                 inst.rates = dict(snap.rates)
                 inst.outputs, inst.dubious = dict(snap.outputs), snap.dubious
+                if inst.state in (INSTANTIATED, INIT):  # not initialised: it steps on from the state
+                    inst.state = STEP
                 self.stats["restore into an instance without a model" if kind == "build" else "restore"] += 1
             else:  # a state taken before initialisation: its parameters, inputs and time
                 inst.values, inst.outputs, inst.time = dict(snap.values), {}, snap.time
@@ -1599,6 +1613,8 @@ class Generator:
             assert snap is not None
             if inst.has_model and (not snap.has_model or not oracle._same_parameters(inst, snap)):
                 continue
+            if snap.taken_in == TERMINATED and inst.state != TERMINATED:
+                continue
             out.append(j)
         return out
 
@@ -1700,6 +1716,10 @@ class Generator:
             ]
         else:  # terminated
             options = [
+                (
+                    2.0 if states_ok else 0.0,
+                    lambda: self._into_new_slot(oracle, inst, lambda j: Call("getstate", k, (j,))),
+                ),
                 (2.0, lambda: self._get(inst)),
                 (0.7, lambda: self._output_derivatives(inst)),
                 (2.0, lambda: self._status(inst, legal=True)),
@@ -1855,6 +1875,10 @@ class Generator:
             if (h := oracle.handle(oracle.slots[j])) is not None and h.owner is not None and h.live is False
         ]
         junk_slot = N_HANDLE_SLOTS + rng.randrange(N_STATE_SLOTS - N_HANDLE_SLOTS)
+        restorable = self._restorable(oracle, inst)
+        unsettable = [j for j in live if j not in restorable]  # taken before initialisation, or in terminated
+        if unsettable and rng.random() < 0.5:
+            return Call("setstate", k, (rng.choice(unsettable),))
         r = rng.random()
         if r < 0.25:  # make a pointer nobody handed out, then use it
             op = rng.choice(["heap", "static", "small"])

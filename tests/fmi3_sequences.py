@@ -7,8 +7,9 @@ stepMode, terminated), a refused call answers fmi3Error with an error-level log 
 off) and changes nothing, fmi3Fatal is never an answer, FMU state handles are checked. `Oracle` models
 one instance and says which statuses each call may answer; `run_sequences` draws seeded random calls,
 biased toward legal ones so that the sequences reach stepMode, event mode, early returns, restored and
-deserialised states and resets, with illegal calls and bad arguments mixed in, and returns the
-violations. Rigid fidelity (the contract does not depend on the fidelity; the FMI 2.0 sequences run fem).
+deserialised states, instances resumed from a state without initialisation (shim/state_machine.h,
+FMU_STATE_RESTORES) and resets, with illegal calls and bad arguments mixed in, and returns the violations.
+Rigid fidelity (the contract does not depend on the fidelity; the FMI 2.0 sequences run fem).
 
     python tests/in_child.py fmi3_sequences run_sequences '["FemPendulum3.fmu", 40, 1]'
 """
@@ -49,9 +50,20 @@ class Oracle:
     state: str = "instantiated"
     time: float = 0.0
     torque: float = 0.0
-    live: list[Any] = field(default_factory=list)  # (handle, time, torque) handed out and not freed
+    live: list[Any] = field(default_factory=list)  # (handle, time, torque, taken) handed out and not freed
     freed: list[Any] = field(default_factory=list)  # freed handles: fmi3FreeFMUState set them to NULL
     blobs: list[bytes] = field(default_factory=list)
+
+    def restored(self, taken: str) -> str | None:
+        """The state after setting an FMU state taken in `taken` ("init": before initialisation, "step" or
+        "event": stepping, "terminated"), or None where it is refused (shim/state_machine.h,
+        FMU_STATE_RESTORES): an instance not yet initialised takes the mode of one taken stepping."""
+        fresh = self.state in {"instantiated", "init"}
+        if taken == "terminated":
+            return "terminated" if self.state == "terminated" else None
+        if taken == "init":
+            return self.state if fresh else None
+        return "step" if fresh else self.state
 
     def transition(self, call: str) -> tuple[set[str], str | None]:
         """The states a life-cycle call is allowed in, and the state it leads to."""
@@ -182,29 +194,42 @@ class Sequence:
     def states(self) -> None:
         o, rng = self.oracle, self.rng
         pick = rng.randrange(5)
-        if pick == 0 and o.state == "step":  # states are taken in stepMode only: their time is known
+        # states are taken where their time is known: in initializationMode (after the fidelity is set), stepMode,
+        # eventMode and terminated
+        if pick == 0 and o.state != "instantiated":
             if self.judge("getFMUState", {OK}, self.slave.getFMUState) == OK:
-                o.live.append((self.result, o.time, o.torque))
+                o.live.append((self.result, o.time, o.torque, o.state))
         elif pick == 1 and (o.live or o.freed):
-            # every state of this FMU fits: the parameters are the same in every sequence (docs/fmu.md, FMU states)
-            (handle, t, torque), live = rng.choice([(h, True) for h in o.live] + [(h, False) for h in o.freed])
-            if self.judge("setFMUState", {OK} if live else {ERROR}, lambda: self.slave.setFMUState(handle)) == OK:
-                o.time, o.torque = t, torque
-                self.tally.reached["restored"] = self.tally.reached.get("restored", 0) + 1
+            self.set_state(*rng.choice([(h, True) for h in o.live] + [(h, False) for h in o.freed]))
         elif pick == 2 and o.live:
             entry = o.live.pop(rng.randrange(len(o.live)))
             self.judge("freeFMUState", {OK}, lambda: self.slave.freeFMUState(entry[0]))
             o.freed.append(entry)
-        elif pick == 3 and o.live and o.state == "step":
-            handle, t, torque = rng.choice(o.live)
+        elif pick == 3 and o.live:
+            handle, t, torque, taken = rng.choice(o.live)
             if self.judge("serializeFMUState", {OK}, lambda: self.slave.serializeFMUState(handle)) == OK:
-                o.blobs.append(self.result)
-                again = self.judge("deserializeFMUState", {OK}, lambda: self.slave.deserializeFMUState(self.result))
-                if again == OK:
-                    o.live.append((self.result, t, torque))
+                blob = self.result
+                o.blobs.append(blob)
+                # a state taken before initialisation does not fit an initialised instance (its model)
+                fits = taken != "init" or o.state in {"instantiated", "init"}
+                allowed = {OK} if fits else {ERROR}
+                if self.judge("deserializeFMUState", allowed, lambda: self.slave.deserializeFMUState(blob)) == OK:
+                    o.live.append((self.result, t, torque, taken))
         elif pick == 4:
             blob = rng.choice([b"junk", *(b[:-1] for b in o.blobs[-1:])])
             self.judge("deserializeFMUState junk", {ERROR}, lambda: self.slave.deserializeFMUState(blob))
+
+    def set_state(self, entry: tuple, live: bool) -> None:
+        """fmi3SetFMUState of a state handed out (freed unless `live`). Every state of this FMU fits: the
+        parameters are the same in every sequence (docs/fmu.md, FMU states); where it may be set and the state
+        after are the table's (Oracle.restored)."""
+        o = self.oracle
+        handle, t, torque, taken = entry
+        after = o.restored(taken) if live else None
+        if self.judge("setFMUState", {ERROR} if after is None else {OK}, lambda: self.slave.setFMUState(handle)) == OK:
+            key = "resumed" if o.state != after else "restored"  # resumed: an instance not initialised, now stepping
+            o.time, o.torque, o.state = t, torque, after
+            self.tally.reached[key] = self.tally.reached.get(key, 0) + 1
 
     def run(self, length: int) -> None:
         o = self.oracle
@@ -213,7 +238,10 @@ class Sequence:
             self.tally.reached[o.state] = self.tally.reached.get(o.state, 0) + 1
             r = self.rng.random()
             legal = {**NEXT, "terminated": "reset"}.get(o.state)
-            if legal is not None and r < 0.35:
+            stepping = [e for e in o.live if e[3] in ("step", "event")]
+            if o.state in ("instantiated", "init") and stepping and r < 0.15:  # a host resuming a saved run
+                self.set_state(self.rng.choice(stepping), True)
+            elif legal is not None and r < 0.35:
                 self.life_cycle(legal)
             elif r < 0.55:
                 self.do_step()

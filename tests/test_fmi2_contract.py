@@ -535,12 +535,12 @@ def _started(fmu, name: str, start: dict, steps: int = 3, torque: float = -0.5):
     return inst, clock
 
 
-def _run(inst, clock: Clock, steps: int, torque: float = -0.5) -> list:
-    """`steps` steps of H: per step, the statuses and the snapshot."""
+def _run(inst, clock: Clock, steps: int, torque: float = -0.5, h: float = H) -> list:
+    """`steps` steps of `h`: per step, the statuses and the snapshot."""
     out = []
     for _ in range(steps):
-        status = [inst.set_named(torque=torque), inst.do_step(clock.t, H)]
-        clock.t += H if status[-1] == 0 else 0.0
+        status = [inst.set_named(torque=torque), inst.do_step(clock.t, h)]
+        clock.t += h if status[-1] == 0 else 0.0
         out.append([status, inst.snapshot()])
     return out
 
@@ -755,46 +755,112 @@ def test_get_fmu_state_into_a_handle_not_handed_out_is_refused(pointers):
         assert value == [3, True], (label, value)
 
 
-def state_into_new_instance_child(path: str) -> dict:
-    """A rigid state set into a new instance (instantiated, then initialised as usual) and into an
-    initialised instance of other parameter values."""
+def resume_child(path: str, start: dict, steps: int, cut: int, h: float) -> dict:
+    """A host resuming a saved run in a new instance: a run of `steps` communication steps of `h`; another
+    cut after `cut` steps, its state serialised; a new instance (other parameter values set on it first)
+    deserialises and sets that state right after fmi2Instantiate and steps on to the end, never initialised."""
     fmu = fmi2_raw.Fmu(path)
-    a, a_clock = _started(fmu, "a", RIGID)
-    status, state = a.get_state()
-    data = a.serialized(state)
-    t_state = a_clock.t
-    expected = _run(a, a_clock, 3, 0.7)
-    out: dict[str, Any] = {"get": status}
-    b = fmi2_raw.Instance(fmu, "b")
-    de_status, copy = b.deserialize(data)
-    out["set"] = [de_status, b.set_state(copy)]
-    # still instantiated: Get and doStep refused; a parameter only at the state's value
-    out["instantiated"] = [b.get_named("theta")[0], b.do_step(t_state, H)]
-    out["parameters"] = [b.set_named(**{"pendulum.E": 1e9}), b.set_named(**RIGID)]
-    out["initialise"] = [b.setup(0.0), b.enter(), b.exit()]
-    out["time"] = list(b.status("Real", fmi2_raw.LAST_SUCCESSFUL_TIME))
-    out["t_state"] = t_state
-    b_clock = Clock()
-    b_clock.t = t_state
-    out["continues"] = _run(b, b_clock, 3, 0.7) == expected
-    other, _ = _started(fmu, "other", {**RIGID, "pendulum.rho": 7000.0})
-    before = other.snapshot()
-    status, foreign = other.deserialize(data)
-    out["other_parameters"] = [status, other.set_state(foreign) if status == 0 else 3, other.snapshot() == before]
-    for inst in (a, b, other):
+    whole, clock = _started(fmu, "whole", start, steps=0)
+    uninterrupted = _run(whole, clock, steps, h=h)
+    first, first_clock = _started(fmu, "first", start, steps=0)
+    _run(first, first_clock, cut, h=h)
+    status, state = first.get_state()
+    data = first.serialized(state)
+    first.free()
+    fresh = fmi2_raw.Instance(fmu, "resumed")
+    out: dict[str, Any] = {"get": status, "changed": fresh.set_named(theta0=0.1, gravity=9.0)}
+    de_status, copy = fresh.deserialize(data)
+    out["set"] = [de_status, fresh.set_state(copy)]
+    out["time"] = list(fresh.status("Real", fmi2_raw.LAST_SUCCESSFUL_TIME)) == [0, first_clock.t]
+    resumed = _run(fresh, first_clock, steps - cut, h=h)  # the snapshots hold the parameters too: the state's
+    out["equal"] = resumed == uninterrupted[cut:]
+    out["statuses"] = sorted({s for step in resumed for s in [*step[0], step[1][0]]})
+    out["initialise"] = [fresh.setup(0.0), fresh.enter(), fresh.exit()]  # stepComplete: not any more
+    out["refusal"] = fresh.messages[-1].text
+    out["end"] = [fresh.terminate(), whole.terminate()]
+    for inst in (whole, fresh):
         inst.free()
     fmu.close()
     return out
 
 
-def test_a_state_set_into_a_new_instance_builds_its_model_and_an_initialised_one_of_other_parameters_refuses(fmus):
-    got = child("state_into_new_instance_child", str(fmus[0]))
-    assert got["get"] == 0 and got["set"] == [0, 0], got
-    assert got["instantiated"] == [3, 3] and got["parameters"] == [3, 0], got
-    assert got["initialise"] == [0, 0, 0], got
-    assert got["time"] == [0, got["t_state"]] and got["continues"], got
-    # refused at deserialise (the state does not fit this instance) or at set; the instance unchanged
-    assert got["other_parameters"][2] and 3 in got["other_parameters"][:2], got
+@pytest.mark.parametrize(
+    "start, steps, cut, h",
+    [(RIGID, 50, 25, 0.01), (FEM, 10, 5, 0.01)],
+    ids=["rigid", "fem"],
+)
+def test_a_new_instance_set_to_a_saved_state_steps_on_without_initialisation_bit_identically(
+    fmus, start, steps, cut, h
+):
+    """Rigid 0..0.5 s (the first impact at 0.17 s), cut at 0.25 s; fem 0..0.1 s, cut at 0.05 s. The new
+    instance is in stepComplete once the state is set, with the state's parameters and time."""
+    got = child("resume_child", str(fmus[0]), start, steps, cut, h)
+    assert got["get"] == 0 and got["changed"] == 0 and got["set"] == [0, 0], got
+    assert got["time"] and got["equal"] and got["statuses"] == [0], got
+    assert got["initialise"] == [3, 3, 3], got
+    assert "fmi2ExitInitializationMode refused in state stepComplete" in got["refusal"], got
+    assert got["end"] == [0, 0], got
+
+
+def resume_rules_child(path: str) -> dict:
+    """States taken before initialisation, while stepping and once terminated, set into instances in each
+    state (docs/fmu.md, "Setting an FMU state")."""
+    fmu = fmi2_raw.Fmu(path)
+    early = fmi2_raw.Instance(fmu, "early")  # a state of a new instance: its parameters and start time
+    changed = early.set_named(**RIGID, theta0=0.2)
+    status, early_state = early.get_state()
+    out: dict[str, Any] = {"early": [changed, status]}
+    before = early.serialized(early_state)
+    run, clock = _started(fmu, "run", RIGID)
+    stepping = run.serialized(run.get_state()[1])
+    done, _ = _started(fmu, "done", RIGID)
+    out["done"] = done.terminate()
+    terminated_state = done.get_state()[1]
+    terminated = done.serialized(terminated_state)
+    # a state taken before initialisation, into a new instance: it stays instantiated, with the state's values
+    fresh = fmi2_raw.Instance(fmu, "fresh")
+    handle = fresh.deserialize(before)[1]
+    out["before_into_instantiated"] = [
+        fresh.set_named(theta0=0.4),
+        fresh.set_state(handle),
+        fresh.get_named("theta")[0],
+    ]
+    out["then_initialised"] = [
+        fresh.do_step(0.0, H),
+        fresh.setup(),
+        fresh.enter(),
+        fresh.get_named("theta0"),
+        fresh.exit(),
+    ]
+    # a state taken stepping, into initializationMode: stepComplete, Exit refused
+    init = fmi2_raw.Instance(fmu, "init")
+    out["stepping_into_init"] = [init.setup(), init.enter(), init.set_state(init.deserialize(stepping)[1])]
+    out["then_stepping"] = [init.exit(), init.do_step(clock.t, H)]
+    # a state taken once terminated: refused by a new instance and a stepping one, taken by a terminated one
+    blank = fmi2_raw.Instance(fmu, "blank")
+    out["terminated_into_instantiated"] = [blank.set_state(blank.deserialize(terminated)[1]), blank.enter()]
+    out["terminated_into_stepping"] = [run.set_state(run.deserialize(terminated)[1]), run.do_step(clock.t, H)]
+    out["terminated_into_terminated"] = [done.set_state(terminated_state), done.do_step(0.0, H)]
+    other, _ = _started(fmu, "other", {**RIGID, "pendulum.rho": 7000.0})  # other parameters: refused as before
+    out["other_parameters"] = other.deserialize(stepping)[0]
+    out["messages"] = blank.since(0) + run.since(0)
+    for inst in (early, run, done, fresh, init, blank, other):
+        inst.free()
+    fmu.close()
+    return out
+
+
+def test_a_state_sets_the_instance_to_its_mode_where_the_table_allows_it(fmus):
+    got = child("resume_rules_child", str(fmus[0]))
+    assert got["early"] == [0, 0] and got["done"] == 0, got
+    assert got["before_into_instantiated"] == [0, 0, 3], got  # still instantiated: no Get
+    assert got["then_initialised"] == [3, 0, 0, [0, [0.2]], 0], got  # the state's theta0, not 0.4
+    assert got["stepping_into_init"] == [0, 0, 0] and got["then_stepping"] == [3, 0], got
+    assert got["terminated_into_instantiated"] == [3, 0], got
+    assert got["terminated_into_stepping"] == [3, 0], got
+    assert got["terminated_into_terminated"] == [0, 3] and got["other_parameters"] == 3, got
+    refusals = [m for m in got["messages"] if "fmi2SetFMUstate refused" in m]
+    assert len(refusals) == 2 and all("taken in state terminated" in m for m in refusals), got["messages"]
 
 
 def pid_states_child(path: str) -> dict:

@@ -74,6 +74,7 @@ def test_random_sequences_reach_the_interesting_states(fast_lane):
     cov, kinds = campaign.coverage, campaign.kinds
     assert cov["discard"] >= 40 and cov["retry after a discard"] >= 15 and cov["calls after a discard"] >= 80, text
     assert cov["restore"] >= 20 and cov["restore into an instance without a model"] >= 1, text
+    assert cov["set of a state taken in terminated refused"] >= 1, text
     assert cov["deserialise"] >= 5 and cov["serialise"] >= 10 and cov["serialise into a larger buffer"] >= 10, text
     assert cov["reset"] >= 15 and cov["terminate"] >= 5 and cov["calls in terminated"] >= 30, text
     assert cov["exit refused (invalid parameters)"] >= 1 and cov["instantiate refused"] >= 5, text
@@ -482,9 +483,27 @@ def test_a_failed_exit_leaves_nothing_behind(d):
     assert d.status("reset 0") == OK
     d.configure(0, reals={"pendulum.nu": 0.5})
     assert d.status("exit 0") == ERROR and d.logged("pendulum.nu"), d.log
-    assert d.status("setstate 0 0") == OK, d.log  # builds the model from the state's parameters
-    assert d.status("exit 0") == OK
+    assert d.status("setstate 0 0") == OK, d.log  # builds the model from the state's parameters: stepComplete
+    assert d.status("exit 0") == ERROR and d.logged("refused in state stepComplete"), d.log
     assert d.status("dostep 0 0.0 0.001 1") == OK, d.log
+
+
+def test_a_new_instance_set_to_a_saved_state_steps_on_without_initialisation(d):
+    """A host resuming a saved run in a new instance: the bytes of a state taken after 20 steps, deserialised
+    and set in a new instance right after fmi2Instantiate; it steps on as the first instance does, never
+    initialised. A state taken once terminated is refused there (the instance stays instantiated)."""
+    d.start(0, reals={"torque": -0.5})
+    t, _ = d.steps(0, 0.0, 1e-3, 20)
+    assert d.state("getstate 0 0")[0] == OK and d.serialise(0, 0, 0)[2] == OK
+    _, ahead = d.steps(0, t, 1e-3, 10)
+    assert d.status("terminate 0") == OK and d.state("getstate 0 1")[0] == OK and d.serialise(0, 1, 1)[2] == OK
+    assert d.instantiate(1) == "ok"
+    assert d.state("deser 1 2 1 real 0")[0] == OK
+    assert d.status("setstate 1 2") == ERROR and d.logged("taken in state terminated"), d.log
+    assert d.state("deser 1 3 0 real 0")[0] == OK
+    assert d.status("setstate 1 3") == OK, d.log
+    assert d.last_successful_time(1) == t and d.steps(1, t, 1e-3, 10)[1] == ahead
+    assert d.status("enter 1") == ERROR and d.logged("refused in state stepComplete"), d.log
 
 
 # lifecycle entry points, and the rest: an instance reaches stepComplete only when the first do not raise

@@ -18,7 +18,7 @@ def check(got: dict, sequences: int) -> None:
     assert got["calls"] >= 30 * sequences and "4" not in got["statuses"]  # never fmi3Fatal
     assert got["statuses"]["0"] > 0.3 * got["calls"] and got["statuses"]["3"] > 0.2 * got["calls"]
     reached = got["reached"]
-    for key in ("instantiated", "init", "event", "step", "terminated", "early return", "restored"):
+    for key in ("instantiated", "init", "event", "step", "terminated", "early return", "restored", "resumed"):
         assert reached.get(key, 0) >= sequences // 10, (key, reached)
 
 

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi1 import FMICallException
+from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
 from fmu3_instance import Instance3, child
 
@@ -314,3 +315,125 @@ def test_output_derivatives_are_the_fmi2_fmus(fmu3, fmus):
     assert any(
         "fmi3GetOutputDerivatives refused: nValues is 1, the 1 variables have 15 elements" in m for m in got["messages"]
     )
+
+
+SCALARS = ("time", "theta", "omega", "gap", "contact_force", "energy.total", "energy.torque_work", "gap_min")
+
+
+def _fresh(inst: Instance3, name: str, event_mode: bool = False) -> tuple[FMU3Slave, list[tuple[int, str]]]:
+    """A new instance of the FMU `inst` runs (its extraction folder), instantiated only, and its log."""
+    messages: list[tuple[int, str]] = []
+    fresh = FMU3Slave(guid=inst.md.guid, unzipDirectory=inst.dir, modelIdentifier="FemPendulum", instanceName=name)
+    fresh.instantiate(
+        eventModeUsed=event_mode,
+        logMessage=lambda env, status, category, message: messages.append((int(status), message.decode())),
+    )
+    return fresh, messages
+
+
+def _attempt(call) -> int:
+    """The status of `call` (fmpy raises for anything above fmi3Warning)."""
+    try:
+        call()
+    except FMICallException as exc:
+        return int(exc.status)
+    return 0
+
+
+def resume(fmu: str, start: dict, steps: int, cut: int, h: float, event_mode: bool) -> dict:
+    """(In a child.) A host resuming a saved run in a new instance: a run of `steps` doSteps of `h`; another
+    cut after `cut`, its state serialised; a new instance (other parameter values set first) deserialises and
+    sets it right after instantiation and steps on, never initialised, handling the events it reports (with
+    eventModeUsed)."""
+    whole = Instance3(fmu, name="whole", **start)
+    vrs = [whole.vr(n) for n in SCALARS]
+    uninterrupted = [whole.step(h, -0.5) and [x.hex() for x in whole.fmu.getFloat64(vrs)] for _ in range(steps)]
+    first = Instance3(fmu, name="first", **start)
+    for _ in range(cut):
+        first.step(h, -0.5)
+    blob = first.fmu.serializeFMUState(first.fmu.getFMUState())
+    t = first.t
+    first.fmu.terminate()
+    first.fmu.freeInstance()
+    fresh, messages = _fresh(whole, "resumed", event_mode)
+    fresh.setFloat64([whole.vr("theta0"), whole.vr("gravity")], [0.1, 9.0])
+    fresh.setFMUState(fresh.deserializeFMUState(blob))
+    resumed, events = [], 0
+    for _ in range(steps - cut):
+        fresh.setFloat64([whole.vr("torque")], [-0.5])
+        event, _terminate, _early, t = fresh.doStep(t, h)
+        if event:
+            fresh.enterEventMode()
+            fresh.updateDiscreteStates()
+            fresh.enterStepMode()
+            events += 1
+        resumed.append([x.hex() for x in fresh.getFloat64(vrs)])
+    parameters = [whole.vr("theta0"), whole.vr("gravity"), whole.vr("model.mesh_size")]
+    got = {
+        "equal": resumed == uninterrupted[cut:],
+        "parameters": fresh.getFloat64(parameters) == whole.fmu.getFloat64(parameters),
+        "events": events,
+        "initialise": [_attempt(lambda: fresh.enterInitializationMode(startTime=0.0)), _attempt(fresh.terminate)],
+        "messages": messages,
+    }
+    fresh.freeInstance()
+    whole.close()
+    return got
+
+
+@pytest.mark.parametrize(
+    "start, steps, cut, event_mode",
+    [
+        ({"model.fidelity": 2}, 50, 25, False),
+        ({"model.fidelity": 2}, 50, 15, True),
+        ({"model.mesh_size": 0.06}, 10, 5, False),
+    ],
+    ids=["rigid", "rigid-event-mode", "fem"],
+)
+def test_a_new_instance_set_to_a_saved_state_steps_on_without_initialisation_bit_identically(
+    fmu3, start, steps, cut, event_mode
+):
+    """Rigid 0..0.5 s (under the torque -0.5 N m the first impact is at 0.17 s), cut at 0.25 s, and with
+    eventModeUsed cut at 0.15 s (the impact's events come after the cut); fem 0..0.1 s, cut at 0.05 s. Once the
+    state is set the new instance is in stepMode, with the state's parameters and time."""
+    got = child(MODULE, "resume", str(fmu3), start, steps, cut, 0.01, event_mode)
+    assert got["equal"] and got["parameters"], got
+    assert got["events"] > 0 if event_mode else got["events"] == 0, got
+    assert got["initialise"] == [3, 0], got  # in stepMode: no initialisation; terminate as from any step
+    assert any("fmi3EnterInitializationMode refused in state stepMode" in m for s, m in got["messages"] if s == 3)
+
+
+def resume_rules(fmu: str) -> dict:
+    """(In a child.) States taken before initialisation and once terminated, set into new instances."""
+    run = Instance3(fmu, name="run", **{"model.fidelity": 2})
+    run.step(1e-3)
+    early, _ = _fresh(run, "early")
+    early.setFloat64([run.vr("theta0")], [0.2])
+    before = early.serializeFMUState(early.getFMUState())
+    run.fmu.terminate()
+    terminated = run.fmu.serializeFMUState(run.fmu.getFMUState())
+    fresh, messages = _fresh(run, "fresh")
+    got = {
+        "terminated": [_attempt(lambda: fresh.setFMUState(fresh.deserializeFMUState(terminated)))],
+        "before": [_attempt(lambda: fresh.setFMUState(fresh.deserializeFMUState(before)))],
+    }
+    got["terminated"].append(_attempt(lambda: fresh.getFloat64([run.vr("theta")])))  # still instantiated
+    got["before"] += [
+        _attempt(lambda: fresh.getFloat64([run.vr("theta")])),
+        _attempt(lambda: fresh.enterInitializationMode(startTime=0.0)),
+        fresh.getFloat64([run.vr("theta0")]),
+    ]
+    got["messages"] = [m for s, m in messages if s == 3]
+    for inst in (early, fresh):
+        inst.freeInstance()
+    run.fmu.freeInstance()
+    return got
+
+
+def test_a_state_taken_before_initialisation_leaves_a_new_instance_instantiated_one_taken_terminated_is_refused(fmu3):
+    got = child(MODULE, "resume_rules", str(fmu3))
+    assert got["terminated"] == [3, 3], got
+    assert got["before"] == [0, 3, 0, [0.2]], got  # instantiated, then initialised with the state's theta0
+    assert any("fmi3SetFMUState refused" in m and "taken in state terminated" in m for m in got["messages"]), got[
+        "messages"
+    ]

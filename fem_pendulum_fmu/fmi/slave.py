@@ -175,7 +175,9 @@ class PendulumSlave(CheckedVariableAccess):
         return self._preview[1]
 
     def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
-        if self.model is None:  # an instance started from an FMU state keeps the state's time
+        # an instance started from an FMU state keeps the state's time (reached through pythonfmu's binary only,
+        # which has no state machine: the FMU's own is in stepComplete then, shim/state_machine.h)
+        if self.model is None:
             self.time = float(start_time)
 
     @property
@@ -185,7 +187,7 @@ class PendulumSlave(CheckedVariableAccess):
 
     def exit_initialization_mode(self) -> None:
         self.init_error = None  # whatever an earlier, refused Exit found
-        if self.model is not None:  # started from an FMU state (fmi2SetFMUstate after fmi2Instantiate)
+        if self.model is not None:  # started from an FMU state (as setup_experiment says)
             self.stepping, self.initialising = True, False
             return
         t0 = time.perf_counter()
@@ -386,7 +388,9 @@ class PendulumSlave(CheckedVariableAccess):
     def _set_fmu_state(self, state: FmuState) -> None:
         """Restore a state of this FMU; anything else is refused (fmi2Error, state unchanged), never
         raised (pythonfmu's binary, on Windows, makes an exception fmi2Fatal). Into an instance not yet
-        initialised, the state's parameters build the model (the initialisation calls that follow keep it)."""
+        initialised, the state's parameters (replacing those set) build the model, and the instance steps on
+        from it without initialisation (the binary puts it in stepComplete: shim/state_machine.h,
+        FMU_STATE_RESTORES)."""
         problem = state.mismatch(self.values, self.model is not None)
         model = self.model
         if problem is None and state.model is not None:
@@ -403,8 +407,9 @@ class PendulumSlave(CheckedVariableAccess):
         if self.model is None:
             self.values = dict(state.values)
         if state.model is not None and model is not None:  # model is None only if state.model is
-            if self.model is None:
+            if self.model is None:  # initialised now, whatever an initialisation begun had found
                 self.initialised, self.time = True, model.time
+                self.initialising, self.init_error, self._preview = False, None, None
             self.model, self.outputs, self.broken, self.cannot_continue = model, model.outputs(), None, False
             self._discarded = None
         if state.model is None and self.model is None:

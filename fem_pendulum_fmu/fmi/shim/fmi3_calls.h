@@ -34,7 +34,7 @@
     X(fmi3SetBoolean, SETTABLE)                                           \
     X(fmi3SetString, SETTABLE)                                            \
     X(fmi3GetFMUState, ANY_STATE)                                         \
-    X(fmi3SetFMUState, ANY_STATE)                                         \
+    X(fmi3SetFMUState, ANY_STATE) /* the state after: FMU_STATE_RESTORES */ \
     X(fmi3FreeFMUState, ANY_STATE)                                        \
     X(fmi3SerializedFMUStateSize, ANY_STATE)                              \
     X(fmi3SerializeFMUState, ANY_STATE)                                   \

@@ -1,11 +1,12 @@
 /* The FMU state functions of this project's FMUs (FMI 2.0, section 2.1.8; FMI 3.0, section 3.2.4), shared
  * by both binaries: fmi2_states.c and fmi3_states.c are their exported names (fmu_state_calls.h).
  *
- * A state is the slave's state object behind a handle of fmu_states.h: a pointer that is not a live
- * handle of this instance is refused without being read through. Serialised, a state is a header of
- * this binary (magic, format version, the FMU's GUID, the time) followed by the slave's bytes, so
- * fmi2DeSerializeFMUstate refuses another FMU's or a damaged state before the slave sees it, and the
- * slave (fmi/fmu_state.py) then checks that the state fits this instance's model. */
+ * A state is the slave's state object behind a handle of fmu_states.h, with the instance's state (mode) when it
+ * was taken: a pointer that is not a live handle of this instance is refused without being read through.
+ * Serialised, a state is a header of this binary (magic, format version, the mode, the FMU's GUID, the time)
+ * followed by the slave's bytes, so fmi2DeSerializeFMUstate refuses another FMU's or a damaged state before the
+ * slave sees it, and the slave (fmi/fmu_state.py) then checks that the state fits this instance's model. Setting
+ * a state moves the instance to the state machine's FMU_STATE_RESTORES (state_machine.h). */
 #include "python_api.h"
 
 #include <stdint.h>
@@ -29,12 +30,12 @@
 #define DESERIALIZE "DeSerialize"
 #endif
 #define FMI_PREFIX (MAGIC[7] == '3' ? "fmi3" : "fmi2")
-#define FORMAT_VERSION 1u
+#define FORMAT_VERSION 2u /* 2: the mode in the header (1 had a reserved word there) */
 
 typedef struct {
     char magic[8];
     uint32_t version;
-    uint32_t reserved;
+    uint32_t mode; /* the instance's MachineState when the state was taken */
     char guid[48];
     double time;
     uint64_t payload;
@@ -75,7 +76,7 @@ void release_all_states(Instance *inst) {
  * instance (FMI 2.0: fmi2GetFMUstate into a state already handed out), else (*s is NULL, checked by
  * target_problem) under a new handle. */
 static fmi2Status keep_state(Instance *inst, Call call, fmi2FMUstate *s, PyObject *object, PyObject *bytes,
-                             double time) {
+                             double time, int mode) {
     SavedState *entry = registry_find(&inst->states, *s);
     if (entry != NULL) {
         release_entry(entry);
@@ -87,6 +88,7 @@ static fmi2Status keep_state(Instance *inst, Call call, fmi2FMUstate *s, PyObjec
     entry->python_state = object;
     entry->serialised = bytes;
     entry->time = time;
+    entry->mode = mode;
     *s = entry->handle;
     return fmi2OK;
 }
@@ -121,22 +123,38 @@ fmi2Status state_get(void *c, Call call, fmi2FMUstate *s) {
     PyObject *object = py.CallMethod(inst->slave, "_get_fmu_state", NULL);
     if (object) py.IncRef(object); /* slave_settle drops one reference */
     fmi2Status status = slave_settle(inst, call_name(call), object, fmi2OK);
-    if (status == fmi2OK) status = keep_state(inst, call, s, object, NULL, inst->time);
+    if (status == fmi2OK) status = keep_state(inst, call, s, object, NULL, inst->time, (int)inst->state);
     else if (object) py.DecRef(object);
     return end(&f, status);
 }
 
+/* Why a state taken in `taken` cannot be set in the instance's state (FMU_STATE_RESTORES), or NULL. */
+static const char *restore_problem(const Instance *inst, int taken, char *why, size_t n) {
+    if (restored_state(inst->state, taken) != RESTORE_REFUSED) return NULL;
+    char states[256];
+    describe_states(restorable_in(taken), states, sizeof states);
+    snprintf(why, n, "the state was taken in state %s, and a state taken there can be set in: %s (this instance is "
+             "in state %s)", state_name((MachineState)taken), states, state_name(inst->state));
+    return why;
+}
+
 fmi2Status state_set(void *c, Call call, fmi2FMUstate s) {
     Frame f;
+    char why[512];
     Instance *inst = state_call(c, call, 0);
     SavedState *entry = inst ? find_state(inst, call, s) : NULL;
-    if (entry == NULL || !enter_python(inst, call, &f)) return fmi2Error;
+    if (entry == NULL) return fmi2Error;
+    const char *bad = restore_problem(inst, entry->mode, why, sizeof why);
+    if (bad != NULL) return refuse(inst, call, bad);
+    if (!enter_python(inst, call, &f)) return fmi2Error;
     PyObject *r = py.CallMethod(inst->slave, "_set_fmu_state", "(O)", (PyObject *)entry->python_state);
     fmi2Status status = slave_settle(inst, call_name(call), r, fmi2OK);
     if (status == fmi2OK) {
         take_slave_time(inst, entry->time);
         inst->cannot_continue = 0;
-        if (inst->state == STATE_INSTANTIATED) inst->restored = 1;
+        MachineState after = (MachineState)restored_state(inst->state, entry->mode);
+        if (after == STATE_INSTANTIATED) inst->restored = 1;
+        inst->state = after;
     }
     return end(&f, status);
 }
@@ -221,7 +239,8 @@ fmi2Status state_serialize(void *c, Call call, fmi2FMUstate s, fmi2Byte out[], s
                  need, FMI_PREFIX);
         return end(&f, refuse(inst, call, why));
     }
-    Header header = {.version = FORMAT_VERSION, .time = entry->time, .payload = need - sizeof(Header)};
+    Header header = {
+        .version = FORMAT_VERSION, .mode = (uint32_t)entry->mode, .time = entry->time, .payload = need - sizeof(Header)};
     memcpy(header.magic, MAGIC, sizeof header.magic);
     snprintf(header.guid, sizeof header.guid, "%s", FMU_GUID);
     char *data;
@@ -256,6 +275,10 @@ static const char *bad_header(const fmi2Byte bytes[], size_t size, Header *heade
                  (size_t)(header->payload + sizeof(Header)));
         return why;
     }
+    if (restorable_in((int)header->mode) == 0) {
+        snprintf(why, n, "the state is damaged: its mode %u is no state of this FMU", header->mode);
+        return why;
+    }
     return NULL;
 }
 
@@ -276,7 +299,7 @@ fmi2Status state_deserialize(void *c, Call call, const fmi2Byte bytes[], size_t 
     if (object) py.IncRef(object); /* slave_settle drops one reference */
     fmi2Status status = slave_settle(inst, call_name(call), object, fmi2OK);
     if (status == fmi2OK) {
-        status = keep_state(inst, call, s, object, payload, header.time);
+        status = keep_state(inst, call, s, object, payload, header.time, (int)header.mode);
     } else {
         if (object) py.DecRef(object);
         if (payload) py.DecRef(payload);

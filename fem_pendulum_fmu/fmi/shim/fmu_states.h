@@ -14,6 +14,7 @@ typedef struct {
     void *python_state;      /* the slave's state object (a new reference) */
     void *serialised;        /* its bytes once serialised (a new reference), or NULL */
     double time;             /* the FMU's time when the state was taken */
+    int mode;                /* the instance's MachineState when it was taken (state_machine.h) */
 } SavedState;
 
 typedef struct {

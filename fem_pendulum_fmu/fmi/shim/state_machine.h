@@ -45,7 +45,7 @@ typedef enum {
     X(fmi2SetBoolean, SETTABLE)                                           \
     X(fmi2SetString, SETTABLE)                                            \
     X(fmi2GetFMUstate, ANY_STATE)                                         \
-    X(fmi2SetFMUstate, ANY_STATE)                                         \
+    X(fmi2SetFMUstate, ANY_STATE) /* the state after: FMU_STATE_RESTORES */ \
     X(fmi2FreeFMUstate, ANY_STATE)                                        \
     X(fmi2SerializedFMUstateSize, ANY_STATE)                              \
     X(fmi2SerializeFMUstate, ANY_STATE)                                   \
@@ -69,6 +69,24 @@ typedef enum {
 #define FMU_CALLS FMI2_CALLS
 #endif
 
+/* What setting an FMU state (fmi2SetFMUstate, fmi3SetFMUState: allowed in every state above) does to the
+ * instance's state, by the state the FMU state was taken in. Only an instance not yet initialised changes: set to
+ * an FMU state taken after initialisation it is in stepComplete (FMI 3.0: stepMode) with that state's parameters,
+ * time and model, and steps on without initialisation, as a host resuming a saved run in a new instance expects
+ * (fmpy's simulate_fmu given fmu_state); an FMU state taken in eventMode counts as one taken stepping (this FMU's
+ * event mode updates nothing). An FMU state taken before initialisation has no model to step on; one taken once
+ * terminated may only be read in a terminated instance.
+ * X(the instance's state, after an FMU state taken before initialisation [instantiated, initializationMode],
+ * after one taken stepping [stepComplete, eventMode], after one taken in terminated); RESTORE_REFUSED: fmi2Error,
+ * nothing changed. docs/fmu.md, "Setting an FMU state". */
+#define RESTORE_REFUSED NO_STATE
+#define FMU_STATE_RESTORES(X)                                                                          \
+    X(STATE_INSTANTIATED, STATE_INSTANTIATED, STATE_STEP_COMPLETE, RESTORE_REFUSED)                   \
+    X(STATE_INITIALIZATION_MODE, STATE_INITIALIZATION_MODE, STATE_STEP_COMPLETE, RESTORE_REFUSED)     \
+    X(STATE_STEP_COMPLETE, RESTORE_REFUSED, STATE_STEP_COMPLETE, RESTORE_REFUSED)                     \
+    X(STATE_EVENT_MODE, RESTORE_REFUSED, STATE_EVENT_MODE, RESTORE_REFUSED)                           \
+    X(STATE_TERMINATED, RESTORE_REFUSED, STATE_TERMINATED, STATE_TERMINATED)
+
 #define AS_ENUM(call, states) CALL_##call,
 typedef enum { FMU_CALLS(AS_ENUM) N_CALLS } Call;
 #undef AS_ENUM
@@ -79,5 +97,10 @@ const char *call_name(Call call);
 const char *state_name(MachineState state);
 /* "instantiated, initializationMode" or "no state (this FMU does not provide it)" */
 void describe_states(int mask, char *text, size_t n);
+/* The instance's state after setting, in state `current`, an FMU state taken in state `taken`
+ * (FMU_STATE_RESTORES); RESTORE_REFUSED where that is refused, or `taken` is no state. */
+int restored_state(MachineState current, int taken);
+/* The states in which an FMU state taken in `taken` can be set (a mask; 0: `taken` is no state). */
+int restorable_in(int taken);
 
 #endif
