@@ -66,7 +66,7 @@ def build_pendulum3(output: Path) -> Path:
     from ..version import __version__
 
     token = "{" + str(uuid.uuid4()) + "}"
-    xml2 = render(token, now_iso(), __version__)
+    xml2 = render(token, now_iso(), __version__, fmi_version=3)  # FMI 2.0's form, FMI 3.0's names (fmi_names.py)
     xml3 = to_fmi3(xml2, token)
     output = Path(output).resolve()
     output.parent.mkdir(parents=True, exist_ok=True)

@@ -20,11 +20,9 @@ from pathlib import Path
 from typing import Any, Literal, get_args
 
 from ..physics.scene import Scene
+from .fmi_names import FMI3_TYPES, FmiVersion, fmi_text
 
 TEMPLATE_NAME = "modelDescription.template.xml"
-# each FMI 2.0 type of the template and the FMI 3.0 FMU's type for it (model_description3.py; an Enumeration is one
-# in both)
-FMI3_TYPES = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String"}
 # Integer aliases of enumerations, for masters that cannot set enumerations (libcosim); 0 = the enumeration decides
 ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}
 # parameters of the FMU's field output (fmi/vtk_output.py), not of the physics: no Scene field takes them
@@ -122,8 +120,17 @@ def scene_from_values(values: Mapping[str, Any], interface: Interface | None = N
     for alias, target in ENUM_ALIASES.items():
         index = int(values.get(alias, 0))
         if index != 0:
-            scene_values[target] = parameters[target].item_name(index)
+            scene_values[target] = _alias_item(alias, parameters[target], index)
     return Scene().with_values(scene_values)
+
+
+def _alias_item(alias: str, target: Variable, index: int) -> str:
+    """The item an Integer alias other than 0 picks; a ValueError naming the alias (not its enumeration) and the
+    values it takes."""
+    if not 1 <= index <= len(target.items):
+        allowed = ", ".join([f"0 (use {target.name})", *(f"{i} ({n})" for i, n in enumerate(target.items, 1))])
+        raise ValueError(f"parameter {alias} = {index!r} is not allowed: choose one of {allowed}")
+    return target.items[index - 1]
 
 
 def _scene_value(var: Variable, value: Any) -> Any:
@@ -213,7 +220,7 @@ def _parse(path: str) -> Interface:
                 type=_word(typed, "type", typed.tag, VariableType),
                 causality=_word(sv, "causality", sv.get("causality", "local"), Causality),
                 variability=_word(sv, "variability", sv.get("variability", "continuous"), Variability),
-                description=sv.get("description", ""),
+                description=fmi_text(sv.get("description", ""), 2),  # FMI 2.0's words (fmi_names.py)
                 start=_start(typed.tag, typed.get("start")),
                 unit=typed.get("unit"),
                 display_unit=typed.get("displayUnit"),
@@ -236,10 +243,12 @@ def load(resources: str | os.PathLike | None = None) -> Interface:
     return _parse(str(template_path(resources)))
 
 
-def render(guid: str, date: str, version: str, path: Path | None = None) -> str:
-    """The template's text with its placeholders filled: the FMU's modelDescription.xml."""
+def render(guid: str, date: str, version: str, path: Path | None = None, fmi_version: FmiVersion = 2) -> str:
+    """The template's text with its placeholders filled: the FMU's modelDescription.xml, its texts naming what
+    `fmi_version` names (fmi_names.py; the FMI 3.0 FMU's is then translated by model_description3.py)."""
     text = (path or template_path()).read_text()
-    return text.replace("{{GUID}}", guid).replace("{{DATE}}", date).replace("{{VERSION}}", version)
+    text = text.replace("{{GUID}}", guid).replace("{{DATE}}", date).replace("{{VERSION}}", version)
+    return fmi_text(text, fmi_version)
 
 
 def markdown_table(interface: Interface | None = None) -> str:

@@ -1,12 +1,12 @@
 """The FMI 3.0 modelDescription.xml, rendered from the one declaration of the interface.
 
-The template (modelDescription.template.xml, FMI 2.0 form) is rendered as for the FMI 2.0 FMU
-(interface.render) and translated here: the same variable names, value references, units, display
-units, descriptions, start values and model structure, with FMI 3.0's types (Real -> Float64, Integer
--> Int32, Enumeration -> Enumeration of an EnumerationType, Boolean, String), the instantiation token
-in place of the GUID, FMI 3.0's independent variable `time`, the array outputs of ARRAY_OUTPUTS and
-the co-simulation capabilities of the FMI 3.0 binary (shim/fmi3_*.c): event mode, intermediate update
-and early return, FMU states. docs/fmu3.md.
+The template (modelDescription.template.xml, FMI 2.0 form) is rendered as for the FMI 2.0 FMU, with the names
+of FMI 3.0's functions and statuses in its texts (interface.render, fmi_names.py), and translated here: the same
+variable names, value references, units, display units, descriptions, start values and model structure, with
+FMI 3.0's types (Real -> Float64, Integer -> Int32, Enumeration -> Enumeration of an EnumerationType, Boolean,
+String), the instantiation token in place of the GUID, FMI 3.0's independent variable `time`, the array outputs
+of ARRAY_OUTPUTS and the co-simulation capabilities of the FMI 3.0 binary (shim/fmi3_*.c): event mode,
+intermediate update and early return, FMU states. docs/fmu3.md.
 """
 
 from __future__ import annotations
@@ -17,7 +17,8 @@ from xml.etree import ElementTree as ET
 
 from ..physics.head_gaps import profile_angles
 from ..physics.scene import PendulumGeometry
-from .interface import FMI3_TYPES, load
+from .fmi_names import FMI3_TYPES
+from .interface import load
 
 DESCRIPTION_ATTRIBUTES = ("name", "valueReference", "description", "causality", "variability", "initial")
 
@@ -157,7 +158,8 @@ def _model_structure(root2: ET.Element, references: list[str]) -> ET.Element:
 
 
 def to_fmi3(model_description: str, token: str) -> str:
-    """The FMI 3.0 modelDescription.xml of the FMI 2.0 one rendered from the template."""
+    """The FMI 3.0 modelDescription.xml of the FMI 2.0 form rendered from the template for FMI 3.0
+    (interface.render with fmi_version=3)."""
     root2 = ET.fromstring(model_description)
     attributes = {k: v for k, v in root2.attrib.items() if k not in ("guid", "numberOfEventIndicators")}
     attributes.update(fmiVersion="3.0", instantiationToken=token)
@@ -177,7 +179,5 @@ def to_fmi3(model_description: str, token: str) -> str:
         variables.append(_variable(scalar))
     _extra_variables(variables)
     root3.append(_model_structure(root2, [s.attrib["valueReference"] for s in scalars]))
-    for category in root3.iter("Category"):
-        category.set("description", category.get("description", "").replace("fmi2", "fmi3"))
     text = minidom.parseString(ET.tostring(root3, encoding="unicode")).toprettyxml(indent="  ")
     return "\n".join(line for line in text.splitlines() if line.strip()) + "\n"

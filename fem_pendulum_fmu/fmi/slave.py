@@ -34,6 +34,7 @@ from ..physics.protocol import SUMMARY_OUTPUTS, OutputDerivatives, Outputs, Stop
 from ..physics.torque import Torque, TorqueProfile
 from . import interface as fmi_interface
 from .fmi_logging import LOG, FmiLogHandler, route_to, routed, unroute
+from .fmi_names import FMI2_NAMES
 from .fmu_state import FmuState
 from .interface import OUTPUT_FIELDS, scene_from_values
 from .variable_access import CheckedVariableAccess
@@ -48,7 +49,6 @@ class PendulumSlave(CheckedVariableAccess):
     """The pendulum's slave: parameters and the torque in, the outputs of the model it builds out."""
 
     author = "fem_pendulum_fmu developers"
-    deserialize_call = "fmi2DeSerializeFMUstate"  # for messages; the FMI 3.0 slave's is its own (slave3.py)
     description = "Nonlinear FE pendulum hitting a wall"
 
     def __init__(self, **kwargs: Any) -> None:
@@ -200,7 +200,7 @@ class PendulumSlave(CheckedVariableAccess):
                     model = create(scene_from_values(self.values, self.interface))
             except (ValueError, KeyError) as exc:
                 self.init_error = f"invalid parameters: {exc}"
-                self._error(self.init_error + " (correct them and call fmi2ExitInitializationMode again)")
+                self._error(f"{self.init_error} (correct them and call {self.fmi.exit_initialization_mode} again)")
                 return
             model.time = self.time
             self.model, self.outputs, self.initialised = model, model.outputs(), True
@@ -267,13 +267,13 @@ class PendulumSlave(CheckedVariableAccess):
         step = (t, h, self.torque, self.torque_rates)
         repeated, self._discarded = self._discarded == step, step
         self.cannot_continue = repeated or not exc.shorter_step_helps
-        advice = ""
+        advice, end = "", f"end the run ({self.fmi.terminated} is true)"
         if repeated:
-            advice = "; the same step was discarded before: end the run (fmi2Terminated is true), or take a shorter one"
+            advice = f"; the same step was discarded before: {end}, or take a shorter one"
         elif self.cannot_continue:
             advice = (
-                "; a shorter communication step cannot help: end the run (fmi2Terminated is true), or restore "
-                "an earlier FMU state or change the input"
+                f"; a shorter communication step cannot help: {end}, or restore an earlier FMU state or change the "
+                "input"
             )
         return f"doStep discarded at t = {t!r}, state kept: {exc}{advice}"
 
@@ -296,8 +296,8 @@ class PendulumSlave(CheckedVariableAccess):
             if var is None or var.causality != Fmi2Causality.input or order not in (1, 2) or not math.isfinite(value):
                 what = "no variable" if var is None else var.name
                 self._error(
-                    f"fmi2SetRealInputDerivatives refused: order {order!r} of value reference {vr} ({what}) = "
-                    f"{value!r}; only the torque's derivatives of order 1 and 2, finite, can be set"
+                    f"{FMI2_NAMES.set_real_input_derivatives} refused: order {order!r} of value reference {vr} "
+                    f"({what}) = {value!r}; only the torque's derivatives of order 1 and 2, finite, can be set"
                 )
                 return
             rates[order - 1] = float(value)
@@ -313,7 +313,7 @@ class PendulumSlave(CheckedVariableAccess):
             reason = "it is not an output" if field is None else SUMMARY_OUTPUTS.get(field)
             if field is None or reason is not None:
                 name = var.name if var is not None else f"value reference {vr}"
-                self._error(f"fmi2GetRealOutputDerivatives refused: {name} has no time derivative: {reason}")
+                self._error(f"{self.fmi.get_output_derivatives} refused: {name} has no time derivative: {reason}")
                 return [0.0] * len(vrs)
             fields.append(field)
         derivatives = self._output_derivatives()
@@ -326,20 +326,20 @@ class PendulumSlave(CheckedVariableAccess):
         changes); None after reporting why there are none."""
         model = self.model
         if model is None or self.broken is not None:
-            self._error(f"fmi2GetRealOutputDerivatives refused: {self.broken or 'the FMU has no model'}")
+            self._error(f"{self.fmi.get_output_derivatives} refused: {self.broken or 'the FMU has no model'}")
             return None
         key = (model.time, self.torque, self.torque_rates)
         if self._derivatives is not None and self._derivatives[0] == key:
             return self._derivatives[1]
         torque = TorqueProfile(self.torque, *self.torque_rates)
         if torque.problems():  # the derivatives are those under the torque the next doStep would take
-            self._error(f"fmi2GetRealOutputDerivatives refused: {'; '.join(torque.problems())}")
+            self._error(f"{self.fmi.get_output_derivatives} refused: {'; '.join(torque.problems())}")
             return None
         with routed(self._handler):
             try:
                 found = model.output_derivatives(torque)
             except (StepFailed, ValueError) as exc:  # a probe step of the model could not be taken
-                self._error(f"fmi2GetRealOutputDerivatives failed at t = {model.time!r}, state kept: {exc}")
+                self._error(f"{self.fmi.get_output_derivatives} failed at t = {model.time!r}, state kept: {exc}")
                 return None
         self._derivatives = (key, found)
         return found
@@ -430,7 +430,7 @@ class PendulumSlave(CheckedVariableAccess):
         else:
             problem = state.mismatch(self.values, self.model is not None)
         if problem is not None:
-            self._error(f"{self.deserialize_call} refused, nothing was changed: {problem}")
+            self._error(f"{self.fmi.deserialize_fmu_state} refused, nothing was changed: {problem}")
             return None
         return state
 

@@ -18,6 +18,7 @@ from pythonfmu3 import Fmi3Slave
 
 from ..physics.head_gaps import head_boundary_gaps
 from .fmi_logging import close_library, find_binary_function
+from .fmi_names import FMI3_NAMES
 from .model_description3 import ARRAY_OUTPUTS, array_references, time_reference
 from .slave import PendulumSlave
 
@@ -28,7 +29,7 @@ class PendulumSlave3(Fmi3Slave):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.inner = PendulumSlave(**kwargs)
-        self.inner.deserialize_call = "fmi3DeserializeFMUState"
+        self.inner.fmi = FMI3_NAMES  # its messages name FMI 3.0's functions and statuses (fmi_names.py)
         self.author = self.inner.author
         self.description = self.inner.description
         self.log_queue = self.inner._get_log_queue()  # one queue: the binary forwards what either logs
@@ -147,10 +148,10 @@ class PendulumSlave3(Fmi3Slave):
         self.inner.set_integer(vrs, values)
 
     def get_int64(self, vrs: list[int]) -> list[int]:  # the Enumerations
-        return self.inner.get_integer(vrs)
+        return self.inner.get_integer(vrs, enumeration=True)
 
     def set_int64(self, vrs: list[int], values: list[int]) -> None:
-        self.inner.set_integer(vrs, values)
+        self.inner.set_integer(vrs, values, enumeration=True)
 
     def get_boolean(self, vrs: list[int]) -> list[bool]:
         return self.inner.get_boolean(vrs)

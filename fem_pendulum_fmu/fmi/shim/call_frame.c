@@ -1,4 +1,4 @@
-/* What every fmi2 function does first: the state machine's check, then the GIL (call_frame.h). */
+/* What every FMI function does first: the state machine's check, then the GIL (call_frame.h). */
 #include "python_api.h"
 
 #include <stdio.h>
@@ -7,6 +7,13 @@
 #include "python_runtime.h"
 
 int exiting = 0;
+
+/* the reset of this binary's FMI version, named in messages as its state machine's table names it */
+#ifdef FMI3_BINARY
+#define RESET_CALL CALL_fmi3Reset
+#else
+#define RESET_CALL CALL_fmi2Reset
+#endif
 
 void mark_exiting(void) { exiting = 1; }
 
@@ -35,11 +42,13 @@ Instance *allowed(fmi2Component c, Call call) {
 
 /* Takes the GIL for a call into the slave; 0 after logging why Python cannot be called. */
 int enter_python(Instance *inst, Call call, Frame *frame) {
-    if (inst->slave == NULL || !python_usable()) {
-        const char *why = inst->slave == NULL
-                              ? "the instance has no Python slave (fmi2Reset could not rebuild it): reset or free it"
-                              : "the process is exiting or its Python has been finalised";
-        log_error(inst, "%s refused: %s", call_name(call), why);
+    if (inst->slave == NULL) {
+        log_error(inst, "%s refused: the instance has no Python slave (%s could not rebuild it): reset or free it",
+                  call_name(call), call_name(RESET_CALL));
+        return 0;
+    }
+    if (!python_usable()) {
+        log_error(inst, "%s refused: the process is exiting or its Python has been finalised", call_name(call));
         return 0;
     }
     frame->gil = py.GILStateEnsure();

@@ -14,6 +14,12 @@
 #include "python_runtime.h"
 #include "slave.h"
 
+#ifdef FMI3_BINARY
+#define SLAVE_BASE "pythonfmu3's Fmi3Slave" /* what the entry module's slave class derives from, for messages */
+#else
+#define SLAVE_BASE "pythonfmu's Fmi2Slave"
+#endif
+
 static __thread int error_reported = 0;
 static __thread char error_message[4096];
 
@@ -189,7 +195,7 @@ static PyObject *find_class(PyObject *module, const char *name, char *why, size_
     if (found == NULL) {
         char text[2048] = "";
         if (py.ErrOccurred()) exception_message(text, sizeof text);
-        snprintf(why, n, "module %s defines no FMU slave class (a subclass of pythonfmu's Fmi2Slave) %s", name, text);
+        snprintf(why, n, "module %s defines no FMU slave class (a subclass of %s) %s", name, SLAVE_BASE, text);
     }
     if (items) py.DecRef(items);
     return found;

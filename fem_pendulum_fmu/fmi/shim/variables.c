@@ -54,7 +54,8 @@ const char *variables_problem(const fmi2ValueReference vr[], size_t n, Kind kind
 
 const char *derivatives_problem(const fmi2ValueReference vr[], size_t n, const fmi2Integer order[], Role role,
                                 int max_order, char *why, size_t size) {
-    const char *wanted = role == ROLE_INPUT ? "a continuous Real input" : "a continuous Real output";
+    char wanted[64];
+    snprintf(wanted, sizeof wanted, "a continuous %s %s", kind_names[KIND_REAL], role == ROLE_INPUT ? "input" : "output");
     for (size_t k = 0; k < n; k++) {
         const Variable *var = find_any(vr[k]);
         if (var == NULL) {
