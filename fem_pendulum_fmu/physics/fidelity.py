@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+import importlib
 import logging
 
 from .protocol import ModelState, Outputs, PendulumModel, StepFailed
 from .scene import AUTO_ORDER, Scene, element_order, validate
+from .shared_state import SHARED_STATE
 
 LOG = logging.getLogger("fem_pendulum_fmu")
 
 AVAILABLE = ("rigid", "reduced", "fem")
+MODEL_CLASSES = {"rigid": "RigidModel", "reduced": "ReducedModel", "fem": "FemModel"}
 
 
 def resolve_fidelity(scene: Scene) -> str:
@@ -26,26 +29,22 @@ def resolve_fidelity(scene: Scene) -> str:
 
 
 def create(scene: Scene) -> PendulumModel:
-    """Validate the scene and build the model it asks for."""
-    if scene.model.order == AUTO_ORDER:
-        LOG.info("model.order = %d (auto) picked %d for this material", AUTO_ORDER, element_order(scene))
-    scene = validate(scene)
-    fidelity = resolve_fidelity(scene)
-    if fidelity not in AVAILABLE:
-        raise ValueError(
-            f"parameter model.fidelity = {fidelity!r} is not available: choose one of auto, {', '.join(AVAILABLE)}"
-        )
-    if fidelity == "rigid":
-        from .rigid.model import RigidModel  # refuses a deformable wall itself
-
-        return RigidModel(scene)
-    if fidelity == "reduced":
-        from .reduced.model import ReducedModel  # refuses a deformable wall itself
-
-        return ReducedModel(scene)
-    from .fem.model import FemModel
-
-    return FemModel(scene)
+    """Validate the scene and build the model it asks for, under shared_state.SHARED_STATE: one model is built at
+    a time in a process (what each builds with netgen and NGSolve is theirs; stepping runs concurrently). The lock
+    also covers the fidelities' modules, imported on first use here (a rigid scene loads no NGSolve): two threads
+    importing two fidelities' trees at once can each wait for a module the other is importing, which Python
+    breaks by handing one of them a module half imported."""
+    with SHARED_STATE:
+        if scene.model.order == AUTO_ORDER:
+            LOG.info("model.order = %d (auto) picked %d for this material", AUTO_ORDER, element_order(scene))
+        scene = validate(scene)
+        fidelity = resolve_fidelity(scene)
+        if fidelity not in AVAILABLE:
+            raise ValueError(
+                f"parameter model.fidelity = {fidelity!r} is not available: choose one of auto, {', '.join(AVAILABLE)}"
+            )
+        module = importlib.import_module(f"{__package__}.{fidelity}.model")
+        return getattr(module, MODEL_CLASSES[fidelity])(scene)  # rigid and reduced refuse a deformable wall
 
 
 __all__ = ["create", "resolve_fidelity", "ModelState", "Outputs", "PendulumModel", "StepFailed"]

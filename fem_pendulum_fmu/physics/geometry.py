@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 from netgen.occ import Circle, Compound, MoveTo, OCCGeometry, TopoDS_Shape, X, Y
 
 from .scene import PendulumGeometry, WallBlock
+from .shared_state import SHARED_STATE
 
 if TYPE_CHECKING:
     import ngsolve
@@ -51,7 +52,6 @@ def wall_shape(block: WallBlock) -> TopoDS_Shape:
     return wall
 
 
-@lru_cache(maxsize=8)
 def make_geometry(
     geo: PendulumGeometry,
     block: WallBlock | None = None,
@@ -64,7 +64,21 @@ def make_geometry(
     Made once per set of arguments and process (the last 8 kept) and shared by the meshes curved on it:
     making the shape (its boolean operations and named edges) leaves about 19 kB that netgen or
     OpenCascade never frees, which every FE model made again (tests/test_fmu_memory.py). The meshes
-    curved on a shared geometry are the same to the last bit."""
+    curved on a shared geometry are the same to the last bit. Made under shared_state.SHARED_STATE (the
+    shapes' names and sizes live in netgen's process-wide tables), and so once even when several threads
+    ask at the same moment."""
+    with SHARED_STATE:
+        return _cached_geometry(geo, block, head_edge_size, wall_face_size, refine_like_seed)
+
+
+@lru_cache(maxsize=8)
+def _cached_geometry(
+    geo: PendulumGeometry,
+    block: WallBlock | None,
+    head_edge_size: float | None,
+    wall_face_size: float | None,
+    refine_like_seed: bool,
+) -> OCCGeometry:
     body = pendulum_shape(geo, refine_like_seed)
     if head_edge_size is not None:
         body.edges["head"].maxh = head_edge_size
@@ -101,7 +115,6 @@ def make_mesh(
 
     from .cache import cached_file
 
-    occ = make_geometry(geo, block, head_edge_size, wall_face_size, refine_like_seed)
     key = {
         "geometry": asdict(geo),
         "block": asdict(block) if block else None,
@@ -111,19 +124,22 @@ def make_mesh(
         "seed": refine_like_seed,
     }
 
-    def write(path: Path) -> None:
-        occ.GenerateMesh(maxh=mesh_size).Save(str(path))
+    with SHARED_STATE:  # netgen's current mesh, geometry and meshing parameters are process-wide
+        occ = make_geometry(geo, block, head_edge_size, wall_face_size, refine_like_seed)
 
-    ngmesh = NetgenMesh(dim=2)
-    path = cached_file("mesh", key, ".vol", write)
-    if path is None:
-        with tempfile.TemporaryDirectory() as tmp:
-            path = Path(tmp) / "mesh.vol"
-            write(path)
+        def write(path: Path) -> None:
+            occ.GenerateMesh(maxh=mesh_size).Save(str(path))
+
+        ngmesh = NetgenMesh(dim=2)
+        path = cached_file("mesh", key, ".vol", write)
+        if path is None:
+            with tempfile.TemporaryDirectory() as tmp:
+                path = Path(tmp) / "mesh.vol"
+                write(path)
+                ngmesh.Load(str(path))
+        else:
             ngmesh.Load(str(path))
-    else:
-        ngmesh.Load(str(path))
-    ngmesh.SetGeometry(occ)
-    mesh = Mesh(ngmesh)
-    mesh.Curve(max(order, 2))
+        ngmesh.SetGeometry(occ)
+        mesh = Mesh(ngmesh)
+        mesh.Curve(max(order, 2))
     return mesh

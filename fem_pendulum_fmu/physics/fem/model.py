@@ -24,10 +24,8 @@ it (`load_step`), and gives it to the Newton solver with the start iterate.
 from __future__ import annotations
 
 import math
-from contextlib import nullcontext
 from functools import partial
 
-import ngsolve as ngs
 import numpy as np
 from ngsolve import CF, x, y
 
@@ -44,6 +42,7 @@ from ..protocol import (
     restore_advance_summary,
 )
 from ..scene import Scene, validate
+from ..shared_state import task_manager
 from ..stepping import StepControl
 from ..torque import Torque, TorqueProfile
 from .contact_update import use_contact_update
@@ -76,7 +75,6 @@ class FemModel:
 
     def __init__(self, scene: Scene, refine_like_seed: bool = False):
         self.scene = scene = validate(scene)  # with model.order resolved
-        ngs.SetNumThreads(scene.model.threads)
         # the meshed wall's contact keeps the phase rule's steps: its pairs, found anew at each step's start, lost
         # 1.2e-4 of the swing energy in an impact of 18 steps against 8.5e-5 in 31 (docs/fem.md, "Deformable wall")
         self.control = StepControl.for_scene(scene, timing_rule=scene.wall.kind == "rigid", even_contact_steps=True)
@@ -252,7 +250,7 @@ class FemModel:
         torque = torque if isinstance(torque, TorqueProfile) else float(torque)
         held = self.newton.held
         try:
-            with ngs.TaskManager() if self.scene.model.threads > 1 else nullcontext():
+            with task_manager(self.scene.model.threads):
                 result = self._stepper(self, self._state, self.time, t_end, torque, self.control, stop)
         except StepFailed:
             # the held Jacobian is part of the state: put back the one from before the failed
