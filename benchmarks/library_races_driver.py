@@ -37,7 +37,7 @@ def mesh_fingerprint(lock: object) -> tuple:
     from ngsolve import Integrate, Mesh
 
     with lock, tempfile.TemporaryDirectory() as folder:  # type: ignore[attr-defined]
-        occ = geometry._cached_geometry.__wrapped__(SCENE.geometry, None, None, None, False)
+        occ = geometry.make_geometry.__wrapped__(SCENE.geometry)
         occ.GenerateMesh(maxh=SCENE.model.mesh_size).Save(f"{folder}/mesh.vol")
         ngmesh = NetgenMesh(dim=2)
         ngmesh.Load(f"{folder}/mesh.vol")

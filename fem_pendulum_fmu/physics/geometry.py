@@ -52,6 +52,7 @@ def wall_shape(block: WallBlock) -> TopoDS_Shape:
     return wall
 
 
+@lru_cache(maxsize=8)
 def make_geometry(
     geo: PendulumGeometry,
     block: WallBlock | None = None,
@@ -64,21 +65,8 @@ def make_geometry(
     Made once per set of arguments and process (the last 8 kept) and shared by the meshes curved on it:
     making the shape (its boolean operations and named edges) leaves about 19 kB that netgen or
     OpenCascade never frees, which every FE model made again (tests/test_fmu_memory.py). The meshes
-    curved on a shared geometry are the same to the last bit. Made under shared_state.SHARED_STATE (the
-    shapes' names and sizes live in netgen's process-wide tables), and so once even when several threads
-    ask at the same moment."""
-    with SHARED_STATE:
-        return _cached_geometry(geo, block, head_edge_size, wall_face_size, refine_like_seed)
-
-
-@lru_cache(maxsize=8)
-def _cached_geometry(
-    geo: PendulumGeometry,
-    block: WallBlock | None,
-    head_edge_size: float | None,
-    wall_face_size: float | None,
-    refine_like_seed: bool,
-) -> OCCGeometry:
+    curved on a shared geometry are the same to the last bit. Called under shared_state.SHARED_STATE (by
+    make_mesh): the shapes' names and sizes live in netgen's process-wide tables."""
     body = pendulum_shape(geo, refine_like_seed)
     if head_edge_size is not None:
         body.edges["head"].maxh = head_edge_size
