@@ -1,5 +1,4 @@
-"""Shared fixtures: the FMUs are built once per test session, into a temporary folder; `kernels` runs a
-test with the compiled kernels and with the numpy forms."""
+"""Shared fixtures: the FMUs are built once per test session, into a temporary folder."""
 
 from __future__ import annotations
 
@@ -9,20 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from fem_pendulum_fmu.physics import native
-
 ROOT = Path(__file__).resolve().parents[1]
-
-
-@pytest.fixture(params=["compiled", "numpy"])
-def kernels(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
-    """Both forms of the FE model's arithmetic: the compiled kernels (native.py; a C compiler is a test
-    requirement) and the numpy forms that run without one."""
-    if request.param == "numpy":
-        monkeypatch.setattr(native, "kernels", lambda: None)
-    elif native.kernels() is None:
-        pytest.fail("no C compiler: the compiled kernels cannot be tested on this machine")
-    return str(request.param)
 
 
 @pytest.fixture(scope="session")

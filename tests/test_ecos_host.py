@@ -237,8 +237,7 @@ def c_host(tmp_path_factory) -> Path:
 def test_c_api_program_matches_fmpy_bit_for_bit(fmus, c_host, tmp_path, case, env, expected):
     """A C program on ecos's C API (ecospy's Python API is ctypes on the same library: the runs above use
     it too), against fmpy in the same environment (fmpy_theta). With an empty environment too: the FMU's fem
-    fidelity still builds its compiled kernels (no PATH: fem_pendulum_fmu/physics/native.py gives the
-    compiler the default search path), bit for bit."""
+    fidelity runs the package's compiled core, bit for bit."""
     fmu, _ = fmus
     reference = fmpy_theta(fmu, tmp_path, [expected], env=env)
     values = [pair.split("=")[1] for pair in CASES[case]]

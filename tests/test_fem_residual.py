@@ -1,4 +1,4 @@
-"""The FE step's fast residual and linear solve (fem/residual.py, fem/lu.py, native.py)
+"""The FE step's fast residual and linear solve (fem/residual.py, fem/lu.py, the compiled core)
 against the NGSolve form they stand in for."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
-from fem_pendulum_fmu.physics import native
+from fem_pendulum_fmu.physics.core import lib, pointer
 from fem_pendulum_fmu.physics.fem.iteration import ANDERSON_DEPTH
 from fem_pendulum_fmu.physics.fem.lu import SUPERNODE_MOST, HeldFactor, Pattern, Symbolic, supernodes
 from fem_pendulum_fmu.physics.fem.model import FemModel
@@ -39,7 +39,7 @@ def _residuals(model: FemModel, torque: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.parametrize("preset", [stiff, compliant])
-def test_split_residual_equals_the_form(kernels: str, preset) -> None:
+def test_split_residual_equals_the_form(preset) -> None:
     model = FemModel(preset())
     for k in range(3):
         model.advance((k + 1) * 1e-3, 0.0)
@@ -47,7 +47,7 @@ def test_split_residual_equals_the_form(kernels: str, preset) -> None:
     assert np.max(np.abs(full - split)) <= RESIDUAL_RTOL * np.max(np.abs(full))
 
 
-def test_split_residual_in_contact_equals_the_form(kernels: str) -> None:
+def test_split_residual_in_contact_equals_the_form() -> None:
     """With head elements in the contact set the rigid-wall term is integrated by NGSolve, on the same set."""
     model = FemModel(stiff())
     _in_contact(model)
@@ -61,8 +61,6 @@ def test_split_residual_in_contact_equals_the_form(kernels: str) -> None:
 def test_compiled_rigid_wall_term_equals_its_form_in_penetration() -> None:
     """The rigid-wall contact term of the kernel (fem/rigid_contact.py) against the contact form's Apply, with
     the head inside the block: equal to 2.3e-16 of the largest entry (measured), so to 1e-13."""
-    if native.kernels() is None:
-        pytest.fail("no C compiler: the compiled kernel cannot be tested on this machine")
     model = FemModel(stiff())
     t = 0.0
     while model.outputs().gap >= 0.0:
@@ -130,8 +128,6 @@ def _in_contact(model: FemModel) -> None:
 def _loaded_at_an_iterate(case: str) -> FemModel:
     """A compiled model ("steel", "rubber..." or "steel in contact") with its next step loaded and a
     perturbed iterate set (a torque of 0.7 N.m out of contact)."""
-    if native.kernels() is None:
-        pytest.fail("no C compiler: the compiled kernel cannot be tested on this machine")
     model = FemModel(compliant() if case.startswith("rubber") else stiff())
     if case == "steel in contact":
         _in_contact(model)
@@ -176,7 +172,7 @@ def test_fused_iteration_equals_the_separate_calls(case: str) -> None:
     """femp_iterate (fem/iteration.py) makes the residual's and the update's operations in their order: the
     same iterate and correction size bit for bit, turned or not, with the contact term or without, for the
     first iteration after prepare. The later ones are combined with the earlier by the Anderson step of
-    depth ANDERSON_DEPTH (elastic_kernel.c, secant_step): here the same step in numpy from the separate
+    depth ANDERSON_DEPTH (core/fem_elastic.c, secant_step): here the same step in numpy from the separate
     calls, whose dot products sum in another order (5e-16 of the change g2 - g1 measured; 1e-12 allowed)."""
     model = _loaded_at_an_iterate(case)
     nw = model.newton
@@ -208,7 +204,7 @@ def test_fused_iteration_equals_the_separate_calls(case: str) -> None:
             assert not np.array_equal(nw._w_np, g[k])
 
 
-def test_held_factor_solves_and_rescales(kernels: str) -> None:
+def test_held_factor_solves_and_rescales() -> None:
     """The LU solve equals scipy's, and the rescaled inertia term equals a matrix assembled at that step;
     with the kernel the factors are its own (multipliers last) and SuperLU's where a pivot vanishes."""
     model = FemModel(stiff())
@@ -235,7 +231,7 @@ def test_held_factor_solves_and_rescales(kernels: str) -> None:
         factor.solve(b, x)
         reference = spl.spsolve(a1, b)
         assert np.max(np.abs(x - reference)) <= 1e-9 * np.max(np.abs(reference))
-        assert (factor._lu is None) == (kernels == "compiled" and last is multipliers)
+        assert (factor._lu is None) == (last is multipliers)
         coeff = split.linear.inertia_coefficient
         assert factor.factorise_shifted(coeff(0.4e-3) - coeff(1e-3))
         factor.solve(b, x)
@@ -288,11 +284,9 @@ def test_point_blocks_share_one_block_among_an_elements_points() -> None:
 
 
 def test_supernodal_solve_reads_many_rows_below_in_chunks() -> None:
-    """femp_lu_solve takes the rows below a supernode 256 at a time (elastic_kernel.c, SOLVE_CHUNK): 300
+    """femp_lu_solve takes the rows below a supernode 256 at a time (core/fem_elastic.c, SOLVE_CHUNK): 300
     unknowns ordered last and coupled to all the others put 300 rows below every supernode before them.
     The kernel's factors solve as scipy does (1e-9 of the solution; measured 2e-15)."""
-    lib = native.kernels()
-    assert lib is not None, "the compiled kernels are needed here (CI has a C compiler)"
     n_lead, n_tail = 200, 300
     n = n_lead + n_tail
     rng = np.random.default_rng(7)
@@ -308,47 +302,17 @@ def test_supernodal_solve_reads_many_rows_below_in_chunks() -> None:
     symbolic = Symbolic.of(Pattern.of(matrix), last)
     below = [symbolic.Lp[e] - symbolic.Lp[e - 1] for e in symbolic.sn[2:]]
     assert max(below) >= n_tail > 256
-    assert symbolic.factorise(lib, np.ascontiguousarray(matrix.data))
+    assert symbolic.factorise(np.ascontiguousarray(matrix.data))
     free = np.arange(n, dtype=np.int32)
     b, x, work = np.cos(np.arange(n)), np.zeros(n), np.zeros(n)
-    lib.femp_lu_solve(*symbolic.kernel_args(free), b.ctypes.data, work.ctypes.data, x.ctypes.data)
+    lib.femp_lu_solve(*symbolic.kernel_args(free), pointer(b), pointer(work), pointer(x))
     reference = spl.spsolve(matrix, b)
     assert np.max(np.abs(x - reference)) <= 1e-9 * np.max(np.abs(reference))
 
 
-def test_compiled_and_numpy_runs_agree(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The same swing and impact either way (0.26 s, the impact at 0.24 s): the forms differ by round-off."""
-    if native.kernels() is None:
-        pytest.fail("no C compiler: the compiled kernel cannot be tested on this machine")
-    compiled = FemModel(stiff())
-    monkeypatch.setattr(native, "kernels", lambda: None)
-    plain = FemModel(stiff())
-    impulse = 0.0
-    for k in range(260):
-        a, b = compiled.advance((k + 1) * 1e-3, 0.0), plain.advance((k + 1) * 1e-3, 0.0)
-        impulse += a.contact_impulse
-    assert impulse > 0.0
-    assert abs(a.theta - b.theta) < 1e-10
-    assert abs(a.total - b.total) < 1e-9 * abs(a.total)
-
-
-def test_no_compiler_falls_back_to_numpy(monkeypatch: pytest.MonkeyPatch, tmp_path, caplog) -> None:
-    monkeypatch.setenv("CC", "/bin/false")
-    monkeypatch.setenv("FEM_PENDULUM_CACHE", str(tmp_path))
-    native.kernels.cache_clear()
-    try:
-        with caplog.at_level("WARNING", logger="fem_pendulum_fmu"):
-            assert native.kernels() is None
-        assert "did not build" in caplog.text
-        model = FemModel(stiff())  # runs on the numpy forms
-        assert model.advance(1e-3, 0.0).theta > 0.0
-    finally:
-        native.kernels.cache_clear()
-
-
 @pytest.mark.parametrize("preset", [stiff, compliant])
-def test_strain_energy_of_the_kernel_equals_the_integral(kernels: str, preset) -> None:
-    """The outputs' strain energy (the stress term's rule, in the kernel or numpy) against NGSolve's
+def test_strain_energy_of_the_kernel_equals_the_integral(preset) -> None:
+    """The outputs' strain energy (the stress term's rule, in the compiled core) against NGSolve's
     Integrate of the same density at the same order. Rubber: equal to 1e-15 relative. Steel: the density
     mu/2 (tr C - 2 - ln det C) cancels terms of mu ~ 8e10 Pa down to strains of 1e-6, so the two sums
     differ in round-off by up to 1.5e-10 J (measured) of a 1.7e-6 J strain energy, a 1e-9 share of the

@@ -94,8 +94,6 @@ def test_native_host_gives_the_memory_of_freed_instances_back(pendulum, cycle_ho
         capture_output=True,
         text=True,
         timeout=300,
-        # PATH only: without it gcc finds no linker, the compiled kernels (physics/native.py) are not built and
-        # the model runs its numpy form, four times slower (the growth was the same there: 16 kB a cycle)
         env={"PATH": os.environ.get("PATH", os.defpath)},
     )
     assert run.returncode == 0, f"exit code {run.returncode}\n{run.stderr[-3000:]}"

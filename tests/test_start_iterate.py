@@ -6,10 +6,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fem_pendulum_fmu.physics import native
 from fem_pendulum_fmu.physics.fem import model as fem_model
 from fem_pendulum_fmu.physics.fem.model import FemModel
-from fem_pendulum_fmu.physics.fem.start_iterate import KEPT, GuessErrors, predicted_miss, recorded
+from fem_pendulum_fmu.physics.fem.start_iterate import (
+    DEPTH,
+    FIT_LEFT,
+    KEPT,
+    RIDGE,
+    WINDOW,
+    GuessErrors,
+    predicted_miss,
+    recorded,
+)
 from fem_pendulum_fmu.physics.scene import stiff
 
 DT = 1e-3
@@ -30,26 +38,32 @@ def history_of(misses: np.ndarray) -> GuessErrors | None:
     return history
 
 
-@pytest.fixture(params=["kernel", "numpy"])
-def path(request, monkeypatch):
-    """Each test once with the compiled kernel (where there is one) and once with the numpy forms."""
-    if request.param == "kernel" and native.kernels() is None:
-        pytest.skip("no C compiler: the kernel path is the numpy one")
-    if request.param == "numpy":
-        monkeypatch.setattr(native, "kernels", lambda: None)
-    return request.param
+def fitted_miss(errors: np.ndarray) -> np.ndarray | None:
+    """The prediction's definition in numpy, the reference of the core's (core/fem_start_iterate.c): the c that
+    fit each of the WINDOW newest misses by the DEPTH before it in least squares (normal equations with the
+    ridge), None where the fit leaves more than FIT_LEFT of the window's squared size; else sum_j c_j e_j."""
+    g = errors @ errors.T
+    window = np.arange(WINDOW)[:, None]
+    rows = window + 1 + np.arange(DEPTH)
+    normal = g[rows[:, :, None], rows[:, None, :]].sum(axis=0)
+    rhs = g[rows, window].sum(axis=0)
+    c = np.linalg.solve(normal + RIDGE * np.max(np.diag(normal)) * np.eye(DEPTH), rhs)
+    total = float(np.trace(g[:WINDOW, :WINDOW]))
+    if not total + float(c @ (normal @ c - 2.0 * rhs)) <= FIT_LEFT * total:
+        return None
+    return c @ errors[:DEPTH]
 
 
-def test_the_misses_of_a_few_modes_are_predicted(path):
+def test_the_misses_of_a_few_modes_are_predicted():
     misses = ringing(KEPT + 1)
     predicted = predicted_miss(history_of(misses[:KEPT]), DT)
     assert predicted is not None
     # three modes need six of the eight terms; the ridge (RIDGE) leaves the fit exact to about 1e-9 of the
-    # miss (measured 1.1e-11 with the kernel and with numpy)
+    # miss (measured 1.1e-11)
     assert np.max(np.abs(predicted - misses[KEPT])) < 1e-8 * np.max(np.abs(misses[KEPT]))
 
 
-def test_noise_and_short_or_mixed_histories_predict_nothing(path):
+def test_noise_and_short_or_mixed_histories_predict_nothing():
     noise = np.random.default_rng(2).standard_normal((KEPT, 60))
     assert predicted_miss(history_of(noise), DT) is None  # the fit leaves far more than FIT_LEFT
     misses = ringing(KEPT)
@@ -61,7 +75,7 @@ def test_noise_and_short_or_mixed_histories_predict_nothing(path):
     assert len(recorded(full, DT * (1 + 1e-12), misses[0]).errors) == KEPT  # an advance's last step, landed
 
 
-def test_the_history_keeps_the_newest_misses_and_their_inner_products(path):
+def test_the_history_keeps_the_newest_misses_and_their_inner_products():
     misses = ringing(KEPT + 3)
     history = history_of(misses)
     assert history is not None
@@ -69,19 +83,15 @@ def test_the_history_keeps_the_newest_misses_and_their_inner_products(path):
     assert np.allclose(history.gram, history.errors @ history.errors.T, rtol=1e-14, atol=0.0)
 
 
-def test_kernel_and_numpy_agree(monkeypatch):
-    if native.kernels() is None:
-        pytest.skip("no C compiler")
+def test_the_core_predicts_the_least_squares_fit():
     misses = ringing(KEPT + 1, modes=4)
-    compiled = history_of(misses)
-    from_kernel = predicted_miss(compiled, DT)
-    monkeypatch.setattr(native, "kernels", lambda: None)
-    by_numpy = history_of(misses)
-    assert np.allclose(compiled.gram, by_numpy.gram, rtol=1e-13, atol=0.0)
-    from_numpy = predicted_miss(by_numpy, DT)
-    assert from_kernel is not None and from_numpy is not None
-    # the fit's round-off differs (a different order of sums): measured 1.6e-12 of the miss
-    assert np.max(np.abs(from_kernel - from_numpy)) < 1e-10 * np.max(np.abs(from_numpy))
+    history = history_of(misses)
+    from_core, reference = predicted_miss(history, DT), fitted_miss(history.errors)
+    assert from_core is not None and reference is not None
+    # the fit's round-off differs (another order of sums, Cholesky against numpy's LU): measured 1.6e-12 of the miss
+    assert np.max(np.abs(from_core - reference)) < 1e-10 * np.max(np.abs(reference))
+    noise = np.random.default_rng(3).standard_normal((KEPT, 60))
+    assert predicted_miss(history_of(noise), DT) is None and fitted_miss(history_of(noise).errors) is None
 
 
 def test_state_entries_round_trip_and_misfits_are_refused():

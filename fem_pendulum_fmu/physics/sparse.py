@@ -7,14 +7,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.sparse as sp
 
-from . import native
+from .core import lib, pointer
 
 if TYPE_CHECKING:
     from ngsolve.la import BaseMatrix
 
 
 def scipy_matrix(mat: BaseMatrix) -> sp.csr_matrix:
-    """The matrix in scipy's CSR form, with the int32 indices the compiled kernel (native.py) reads."""
+    """The matrix in scipy's CSR form, with the int32 indices the compiled core (core/femp_core.h) reads."""
     rows, cols, vals = mat.COO()
     coo = (np.array(vals), (np.array(rows), np.array(cols)))
     return int32_indices(sp.csr_matrix(coo, shape=(mat.height, mat.width)))
@@ -34,30 +34,27 @@ def int32_indices(csr: sp.csr_matrix) -> sp.csr_matrix:
 
 
 class MatVec:
-    """A x for a CSR matrix with int32 indices: the compiled kernel's row loop (scipy's sums in scipy's order,
-    so the same bits) without scipy's dispatch, which cost about 10 us a product, several per step; scipy's
-    product where the kernel is not built."""
+    """A x for a CSR matrix with int32 indices: the core's row loop (scipy's sums in scipy's order, so the same
+    bits) without scipy's dispatch, which costs about 10 us a product, several per step."""
 
     def __init__(self, mat: sp.csr_matrix):
-        self._mat, self._lib = mat, native.kernels()
+        self._mat = mat
         if mat.indptr.dtype != np.int32 or mat.indices.dtype != np.int32 or mat.data.dtype != np.float64:
             raise ValueError("MatVec needs int32 indices and float64 entries (scipy_matrix)")
-        self._args = (mat.shape[0], mat.indptr.ctypes.data, mat.indices.ctypes.data, mat.data.ctypes.data)
+        self._args = (mat.shape[0], pointer(mat.indptr), pointer(mat.indices), pointer(mat.data))
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """A x, a new array."""
-        if self._lib is None:
-            return np.asarray(self._mat @ x)
         x = np.ascontiguousarray(x, dtype=np.float64)
         out = np.zeros(self._args[0])
-        self._lib.femp_csr_axpy(*self._args, 1.0, x.ctypes.data, out.ctypes.data)
+        lib.femp_csr_axpy(*self._args, 1.0, pointer(x), pointer(out))
         return out
 
 
 def require_halves_share_columns(matrix: sp.csr_matrix) -> None:
     """Row i and row n/2 + i of the matrix hold the same columns in the same order, for every i: a point's
     d/dx and d/dy rows of a gradient matrix, which the compiled kernels read through the d/dx row's columns
-    (fem/elastic_kernel.c, gradients_at). ValueError where they do not."""
+    (core/fem_elastic.c, gradients_at). ValueError where they do not."""
     ptr, idx, q = matrix.indptr, matrix.indices, matrix.shape[0] // 2
     same_lengths = np.array_equal(np.diff(ptr[: q + 1]), np.diff(ptr[q:]))
     if not (same_lengths and np.array_equal(idx[ptr[0] : ptr[q]], idx[ptr[q] : ptr[2 * q]])):

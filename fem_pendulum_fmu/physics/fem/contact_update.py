@@ -7,7 +7,7 @@ with the contact in it contracts by 1e-4, and on rubber the held Jacobian was
 re-assembled for nearly every change of the contact set (docs/fem.md,
 change 29). The contact term's Jacobian is small and simple: at each listed
 head point it is c g g^T in the point's position X + E u
-(rigid_contact_kernel.c, femp_rigid_contact_stiffness), so on the unknowns V
+(core/fem_rigid_contact.c, femp_rigid_contact_stiffness), so on the unknowns V
 of the contact set's elements (both components of their basis functions,
 10 to 14 on the steel and rubber meshes) it is V K V^T. With A the held
 Jacobian, assembled without the contact (SplitJacobian's with_contact), the
@@ -15,29 +15,19 @@ correction of A + V K V^T is z - G M V^T z with z = A^-1 r, G = A^-1 V and
 M = (I + K V^T G)^-1 K. G takes one solve per unknown of V and is kept while
 the factors and the set stay (here); K and M are made in the kernel at each
 iterate, the normals turned into the held Jacobian's frame (V holds both
-components of each node, so the turn maps it onto itself; elastic_kernel.c,
+components of each node, so the turn maps it onto itself; core/fem_elastic.c,
 low_rank_prepare and low_rank_update).
 """
 
 from __future__ import annotations
 
-import ctypes
-
 import numpy as np
 
+from ..core import ffi, pointer
 from ..scene import Scene
 from .iteration import FusedIteration
 from .lu import HeldFactor
 from .rigid_contact import RigidContactKernel
-
-_I, _P = ctypes.c_int, ctypes.c_void_p
-
-
-class _LowRank(ctypes.Structure):
-    """struct femp_low_rank of fem/elastic_kernel.c, field for field."""
-
-    _fields_ = [("m", _I), ("n_points", _I), ("dofs", _P), ("G", _P), ("S", _P), ("ex", _P), ("ey", _P)]
-    _fields_ += [(name, _P) for name in ("c", "gx", "gy", "K", "B", "y")]
 
 
 def use_contact_update(scene: Scene) -> bool:
@@ -58,15 +48,14 @@ class ContactUpdate:
         self._points = np.zeros(0, dtype=np.int32)
         self._version = -1  # of the factors G was solved with
         self._arrays: tuple[np.ndarray, ...] = ()  # what the struct points to
-        self._struct = _LowRank()
-        self._address = ctypes.addressof(self._struct)
+        self._struct = ffi.new("struct femp_low_rank *")
         self._handed = False  # whether the fused iteration has the struct
 
     def prepare(self) -> None:
         points = self._contact.points
         if len(points) == 0 or self._factor.version == 0:  # no contact set, or no factors yet
             if self._handed:
-                self._iteration.low_rank(0)
+                self._iteration.low_rank(ffi.NULL)
                 self._handed = False
             return
         if len(points) != len(self._points) or not np.array_equal(points, self._points):
@@ -75,7 +64,7 @@ class ContactUpdate:
         if self._version != self._factor.version:
             self._solve()
         if not self._handed:
-            self._iteration.low_rank(self._address)
+            self._iteration.low_rank(self._struct)
             self._handed = True
 
     @property
@@ -94,10 +83,10 @@ class ContactUpdate:
         self._arrays = (dofs, g, s, ex, ey, np.zeros((3, n)), np.zeros((2, m, m)), np.zeros(2 * m))
         dofs, g, s, ex, ey, stiffness, km, y = self._arrays
         st = self._struct
-        st.m, st.n_points, st.dofs, st.G, st.S = m, n, dofs.ctypes.data, g.ctypes.data, s.ctypes.data
-        st.ex, st.ey, st.y = ex.ctypes.data, ey.ctypes.data, y.ctypes.data
-        st.c, st.gx, st.gy = (row.ctypes.data for row in stiffness)
-        st.K, st.B = (block.ctypes.data for block in km)
+        st.m, st.n_points, st.dofs, st.G, st.S = m, n, pointer(dofs), pointer(g), pointer(s)
+        st.ex, st.ey, st.y = pointer(ex), pointer(ey), pointer(y)
+        st.c, st.gx, st.gy = (pointer(row) for row in stiffness)
+        st.K, st.B = (pointer(block) for block in km)
         self._version = -1
 
     def _solve(self) -> None:

@@ -1,16 +1,16 @@
-"""One Newton iteration of the energy-momentum step in a single kernel call (femp_iterate, fem/elastic_kernel.c).
+"""One Newton iteration of the energy-momentum step in a single call of the core (femp_iterate, core/fem_elastic.c).
 
 On the rubber scene's mesh an iteration cost about 150 us, of which the
 kernels' arithmetic (stress, linear terms, the held factors' solve) about
 115 us: the rest was the Python between the six calls that made it (views,
-numpy copies, ctypes converting some 60 arguments). The struct here holds
+numpy copies, converting some 60 arguments). The struct here holds
 what those calls took, filled once (and its factors' part after each
 factorisation), so that an iteration is one call of five arguments. The
 kernel makes the same operations in the same order as the separate calls
 (the results are the same bit for bit, tests/test_fem_residual.py), then
 the secant step: from a Jacobian's second iteration in a solve, the updated
 iterate is combined with the last ones (Anderson acceleration of depth
-ANDERSON_DEPTH; elastic_kernel.c, secant_step). The held Jacobian's
+ANDERSON_DEPTH; core/fem_elastic.c, secant_step). The held Jacobian's
 iterations contract linearly; on the rubber scene, whose large deformation
 the held Jacobian follows least, depth 1 took 20 % fewer of them and depth 2
 another 8 % (docs/fem.md, changes 16 and 21).
@@ -18,45 +18,22 @@ another 8 % (docs/fem.md, changes 16 and 21).
 
 from __future__ import annotations
 
-import ctypes
 import math
+from typing import Any
 
 import numpy as np
 
+from ..core import ffi, fields, fill, lib, pointer
 from .lu import HeldFactor
 from .residual import SplitResidual
 
-_I, _D, _P = ctypes.c_int, ctypes.c_double, ctypes.c_void_p
-ANDERSON_MOST = 4  # elastic_kernel.c's bound on the depth, the stride of its gram matrix
+ANDERSON_MOST = 4  # core/fem_elastic.c's bound on the depth, the stride of its gram matrix
 # past differences the Anderson step combines: 8 % fewer rubber iterations than 1, 3 no better (docs/fem.md, change 21)
 ANDERSON_DEPTH = 2
 
 
-class _Csr(ctypes.Structure):
-    _fields_ = [("n", _I), ("indptr", _P), ("indices", _P), ("data", _P)]
-
-
-class _Body(ctypes.Structure):
-    _fields_ = [("q", _I), ("indptr", _P), ("indices", _P), ("data", _P), ("F0", _P), ("C0", _P)]
-    _fields_ += [("weights", _P), ("lame_lambda", _D), ("mu", _D), ("n_gauss", _I), ("gauss_s", _P), ("gauss_w", _P)]
-
-
-class _Factors(ctypes.Structure):
-    _fields_ = [("n", _I), ("free_dofs", _P), ("scale", _P), ("perm_r", _P), ("perm_c", _P), ("Lp", _P)]
-    _fields_ += [("Li", _P), ("Lx", _P), ("Up", _P), ("Ui", _P), ("Ux", _P), ("u_diag", _P), ("sn", _P), ("Ur", _P)]
-    _fields_ += [("work", _P)]
-
-
-class _Iteration(ctypes.Structure):
-    """struct femp_iteration of fem/elastic_kernel.c, field for field."""
-
-    _fields_ = [("size", _I), ("n_disp", _I), ("nS", _I), ("n_bodies", _I), ("bodies", _Body * 2)]
-    _fields_ += [("mass", _Csr), ("hinge", _Csr), ("torque", _Csr), ("constant", _P), ("wv", _P)]
-    _fields_ += [("inertia", _D), ("half_torque", _D), ("lu", _Factors), ("nturn", _I), ("ix", _P), ("iy", _P)]
-    _fields_ += [("res", _P), ("moved", _P), ("turned", _P), ("corr", _P), ("w", _P), ("contact", _P)]
-    _fields_ += [("f_last", _P), ("g_last", _P), ("has_last", _I), ("depth", _I), ("kept", _I)]
-    _fields_ += [("df", _P), ("dg", _P), ("gram", _P)]
-    _fields_ += [("low_rank", _P)]
+BODY_FIELDS, FACTOR_FIELDS = fields("struct femp_body"), fields("struct femp_factors")
+CSR_FIELDS = fields("struct femp_csr")
 
 
 class FusedIteration:
@@ -67,14 +44,13 @@ class FusedIteration:
 
     def __init__(
         self,
-        lib: ctypes.CDLL,
         split: SplitResidual,
         turn_args: tuple,
         factor: HeldFactor,
         vectors: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     ):
-        self._lib, self._split, self._factor = lib, split, factor
-        it = self._it = _Iteration()
+        self._split, self._factor = split, factor
+        it = self._it = ffi.new("struct femp_iteration *")
         res, turned, corr, w = vectors
         it.size, it.n_disp, it.nS = len(w), 2 * split.elastic.nS, split.elastic.nS
         bodies = split.elastic.kernel_args
@@ -82,22 +58,22 @@ class FusedIteration:
             raise ValueError("femp_iterate takes at most two bodies")
         it.n_bodies = len(bodies)
         for i, ((q, indptr, indices, data, _nS), middle) in enumerate(bodies):
-            it.bodies[i] = _Body(q, indptr, indices, data, *middle)
+            fill(it.bodies[i], BODY_FIELDS, (q, indptr, indices, data, *middle))
         matrices, (it.constant, it.wv, moved) = split.linear.kernel_arrays()
-        it.mass, it.hinge, it.torque = (_Csr(*args) for args in matrices)
+        for csr, args in zip((it.mass, it.hinge, it.torque), matrices, strict=True):
+            fill(csr, CSR_FIELDS, args)
         it.nturn, it.ix, it.iy = turn_args
-        it.res, it.moved, it.turned = res.ctypes.data, moved, turned.ctypes.data
-        it.corr, it.w = corr.ctypes.data, w.ctypes.data
-        it.contact = split.compiled_contact_address  # the rigid-wall term made in the call (0: none)
-        # the secant step's memory of the last iteration (elastic_kernel.c, secant_step)
+        it.res, it.moved, it.turned = pointer(res), moved, pointer(turned)
+        it.corr, it.w = pointer(corr), pointer(w)
+        it.contact = split.compiled_contact_address  # the rigid-wall term made in the call (NULL: none)
+        # the secant step's memory of the last iteration (core/fem_elastic.c, secant_step)
         self._last = (np.zeros(it.n_disp), np.zeros(it.size))
-        it.f_last, it.g_last = (a.ctypes.data for a in self._last)
+        it.f_last, it.g_last = (pointer(a) for a in self._last)
         # the differences the Anderson step combines and their inner products (secant_step)
         depth = ANDERSON_DEPTH
         self._history = (np.zeros(depth * it.n_disp), np.zeros(depth * it.size), np.zeros(ANDERSON_MOST**2))
-        it.df, it.dg, it.gram = (a.ctypes.data for a in self._history)
+        it.df, it.dg, it.gram = (pointer(a) for a in self._history)
         it.depth = depth
-        self._ref = ctypes.byref(it)
         self._factor_args: tuple = ()
         self._turn = (0, 1.0, 0.0)  # femp_iterate's turn, cos, sin
 
@@ -108,17 +84,17 @@ class FusedIteration:
         it, factor = self._it, self._factor
         if factor.kernel_args is not self._factor_args:  # factors in new arrays (a new pattern, or SuperLU's)
             self._factor_args = factor.kernel_args
-            it.lu = _Factors(*factor.kernel_args, factor.work_at)
+            fill(it.lu, FACTOR_FIELDS, (*factor.kernel_args, factor.work_at))
         it.inertia, it.half_torque = self._split.linear.coefficients
         it.has_last = 0  # a new solve or a new Jacobian: a new fixed-point map, whose first iterate is not combined
         self._turn = (turn != 0.0, math.cos(turn), math.sin(turn))
 
-    def low_rank(self, address: int) -> None:
-        """The held Jacobian's update for the contact (a struct of fem/contact_update.py; 0: none)."""
-        self._it.low_rank = address
+    def low_rank(self, struct: Any) -> None:
+        """The held Jacobian's update for the contact (a struct of fem/contact_update.py; NULL: none)."""
+        self._it.low_rank = struct
 
     def iterate(self, contact: int) -> float:
         """contact: 1 if the residual vector holds the contact term, 0 if none acts, 2 to make the compiled
         rigid-wall term in the call (SplitResidual.fused_contact). From a solve's second iteration with
         a Jacobian on, the updated iterate is combined with the last ones by the secant step."""
-        return float(self._lib.femp_iterate(self._ref, contact, *self._turn))
+        return float(lib.femp_iterate(self._it, contact, *self._turn))

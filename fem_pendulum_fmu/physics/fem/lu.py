@@ -1,13 +1,11 @@
 """The held Newton Jacobian's LU factors and their solve.
 
-Factorised by SuperLU (scipy's splu) on the free unknowns; the solve runs in
-the compiled kernel (native.py), where one costs about a tenth of an ngsolve
-UMFPACK inverse's Mult on the 302 unknowns of the steel scene's mesh: that
-Mult, not the arithmetic, was the larger half of a Newton iteration once the
-residual was compiled (docs/fem.md, "Profile and speed-up"). Without the
-kernel, SuperLU's own solve.
+The solve runs in the compiled core (femp_lu_solve), where one costs about a
+tenth of an ngsolve UMFPACK inverse's Mult on the 302 unknowns of the steel
+scene's mesh: that Mult, not the arithmetic, was the larger half of a Newton
+iteration once the residual was compiled (docs/fem.md, "Profile and speed-up").
 
-With the kernel, a matrix is factorised without pivoting on a fill-reducing
+A matrix is factorised without pivoting on a fill-reducing
 order and structure computed once per sparsity pattern (`Symbolic`), in one
 compiled call: a rubber run refactorises about 1300 times in 2 s, and
 SuperLU took 1.5 ms a time plus 0.8 ms of Python around it (equilibration,
@@ -21,15 +19,15 @@ the rows below them, read once for the whole run (docs/fem.md, change 27).
 
 from __future__ import annotations
 
-import ctypes
 from dataclasses import dataclass, field
+from typing import Any
 
 import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
-from .. import native
+from ..core import ffi, lib, pointer
 from ..sparse import scipy_matrix
 
 # The kernel's factors (`Symbolic`) refuse a pivot under this share of the largest entry below it, a guard
@@ -96,7 +94,7 @@ def _fill_columns(lower: sp.csc_matrix) -> list[np.ndarray]:
     return columns
 
 
-SUPERNODE_MOST = 64  # the widest supernode, as elastic_kernel.c's femp_lu_solve takes them
+SUPERNODE_MOST = 64  # the widest supernode, as core/fem_elastic.c's femp_lu_solve takes them
 
 
 def supernodes(Lp: np.ndarray, Li: np.ndarray) -> np.ndarray:
@@ -133,7 +131,7 @@ def _run_starts(Lp: np.ndarray, Li: np.ndarray) -> list[int]:
 @dataclass
 class Symbolic:
     """A pattern's fill-reducing order and the structure of its factors without pivoting, with the arrays
-    the kernel writes the factors into (femp_lu_factor, native.py)."""
+    the core writes the factors into (femp_lu_factor)."""
 
     Ap: np.ndarray  # the pattern's CSC arrays as int32
     Ai: np.ndarray
@@ -151,20 +149,21 @@ class Symbolic:
     sn: np.ndarray  # the supernodes: their count, then their first columns and n (supernodes())
     u_rows: np.ndarray  # where each entry of U (CSC) goes in Ur
     Ur: np.ndarray  # U's strict part by rows, row i at Lp[i] in the columns Li[Lp[i]:Lp[i + 1]]
-    # the addresses femp_lu_factor and femp_lu_solve take, made once per pattern: the arrays stay where they are
-    factor_at: tuple[tuple[int, ...], tuple[int, ...], int] = field(init=False)
-    solve_at: tuple[int, ...] = field(init=False)
+    # the pointers femp_lu_factor and femp_lu_solve take, made once per pattern: the arrays stay where they are
+    factor_at: tuple[tuple[Any, ...], tuple[Any, ...], Any] = field(init=False)
+    solve_at: tuple[Any, ...] = field(init=False)
     solve_args: tuple = field(init=False, default=())
+    solve_free: np.ndarray | None = field(init=False, default=None)  # the free unknowns solve_args hold
 
     def __post_init__(self) -> None:
         pattern = (self.Ap, self.Ai)
         factors: tuple[np.ndarray, ...] = (self.pos, self.order, self.Lp, self.Li, self.Lx, self.Up, self.Ui, self.Ux)
         factors += (self.u_diag, self.scale, self.u_rows, self.Ur)
-        at = (tuple(a.ctypes.data for a in pattern), tuple(a.ctypes.data for a in factors), self.work.ctypes.data)
+        at = (tuple(pointer(a) for a in pattern), tuple(pointer(a) for a in factors), pointer(self.work))
         self.factor_at = at
         solved: tuple[np.ndarray, ...] = (self.scale, self.pos, self.pos, self.Lp, self.Li, self.Lx, self.Up, self.Ui)
         solved += (self.Ux, self.u_diag, self.sn, self.Ur)
-        self.solve_at = tuple(a.ctypes.data for a in solved)
+        self.solve_at = tuple(pointer(a) for a in solved)
 
     @staticmethod
     def of(pattern: Pattern, last: np.ndarray) -> Symbolic:
@@ -192,17 +191,17 @@ class Symbolic:
         values = (zeros(len(Li)), zeros(len(Ui)), zeros(n), zeros(n), zeros(n))
         return Symbolic(Ap, Ai, pos, order, Lp, Li, Up, Ui, *values, supernodes(Lp, Li), u_rows, zeros(len(Li)))
 
-    def factorise(self, lib: ctypes.CDLL, entries: np.ndarray) -> bool:
+    def factorise(self, entries: np.ndarray) -> bool:
         """Factorise the matrix with these entries on its pattern into the arrays here; False where a pivot
         is refused (the arrays are then not factors)."""
         (pattern, factors, work), n = self.factor_at, len(self.pos)
-        return lib.femp_lu_factor(n, *pattern, entries.ctypes.data, *factors, PIVOT_MIN, work) == 0.0
+        return lib.femp_lu_factor(n, *pattern, pointer(entries), *factors, PIVOT_MIN, work) == 0.0
 
     def kernel_args(self, free: np.ndarray) -> tuple:
         """femp_lu_solve's LU arguments for these factors (positions as both row and column permutation): the
         same tuple at every call for the same `free`, so that the fused iteration keeps the struct it made of it."""
-        if not self.solve_args or self.solve_args[1] != free.ctypes.data:
-            self.solve_args = (len(free), free.ctypes.data, *self.solve_at)
+        if self.solve_free is not free:
+            self.solve_args, self.solve_free = (len(free), pointer(free), *self.solve_at), free
         return self.solve_args
 
 
@@ -215,17 +214,16 @@ class HeldFactor:
         self.free = _int32(np.flatnonzero(free))
         self._last = None if last is None else np.asarray(last, dtype=bool)[self.free]
         self._symbolic: Symbolic | None = None  # of the last pattern, for the kernel's factorisation
-        self.by_superlu = 0  # factorisations SuperLU made (all of them without the kernel)
+        self.by_superlu = 0  # factorisations SuperLU made
         # the inertia term's matrix on the free block, for factorise_shifted
         self._mass = None if mass is None else mass[self.free][:, self.free].tocsc()
         self._pattern: Pattern | None = None  # of the last assembled matrix
         self._assembled = np.zeros(0)  # its entries
         self._mass_entries: np.ndarray | None = None  # the inertia term's entries on that pattern
-        self._lib = native.kernels()
         self._lu: spl.SuperLU | None = None
-        self.kernel_args: tuple = ()  # the kernel's LU arguments (addresses of the factors' arrays)
-        self.work_at = 0
+        self.kernel_args: tuple = ()  # the core's LU arguments (pointers to the factors' arrays)
         self._work = np.zeros(len(self.free))
+        self.work_at = pointer(self._work)
         self._scale = np.ones(len(self.free))  # S of the factorised S A S
         self.version = 0  # counts the factorisations: what was solved with the factors is stale once it moves
 
@@ -251,7 +249,7 @@ class HeldFactor:
         if self._pattern is None or not self._same_pattern(assembled):
             self._pattern = pattern = Pattern.of(assembled)
             self._mass_entries = None if self._mass is None else self._on_pattern(self._mass, pattern)
-            if self._lib is not None and self._last is not None:
+            if self._last is not None:
                 self._symbolic = Symbolic.of(pattern, self._last)
         return assembled.data
 
@@ -286,32 +284,24 @@ class HeldFactor:
         assert self._pattern is not None
         self.version += 1
         symbolic = self._symbolic
-        if self._lib is not None and symbolic is not None and symbolic.factorise(self._lib, entries):
+        if symbolic is not None and symbolic.factorise(entries):
             self._lu = None
             self.kernel_args = symbolic.kernel_args(self.free)
-            self.work_at = self._work.ctypes.data
             return
         self.by_superlu += 1
         scaled, self._scale = self._pattern.equilibrated(entries)
         lu = _splu(scaled)
         self._lu = lu
-        if self._lib is None:
-            return
         # the kernel's solve reads strict factors (its own are): SuperLU's unit diagonal of L and U's diagonal dropped
         L, U = sp.tril(lu.L, -1).tocsc(), sp.triu(lu.U, 1).tocsc()
-        # the arrays the kernel reads, kept alive with the addresses handed to it
+        # the arrays the kernel reads, kept alive with the pointers handed to it
         self._keep: tuple[np.ndarray, ...] = (_int32(lu.perm_r), _int32(lu.perm_c), _int32(L.indptr))
         self._keep += (_int32(L.indices), L.data.copy(), _int32(U.indptr), _int32(U.indices), U.data.copy())
         self._keep += (lu.U.diagonal().copy(), self._scale)
-        addresses = [a.ctypes.data for a in self._keep]
-        # no supernodes (0): SuperLU's factors are solved column by column
-        self.kernel_args = (len(self.free), self.free.ctypes.data, addresses[-1], *addresses[:-1], 0, 0)
-        self.work_at = self._work.ctypes.data
+        at = [pointer(a) for a in self._keep]
+        # no supernodes (NULL): SuperLU's factors are solved column by column
+        self.kernel_args = (len(self.free), pointer(self.free), at[-1], *at[:-1], ffi.NULL, ffi.NULL)
 
     def solve(self, b: np.ndarray, x: np.ndarray) -> None:
         """x[free] = (A^-1 b)[free] (b and x contiguous, over all unknowns; x elsewhere untouched)."""
-        if self._lib is not None:
-            self._lib.femp_lu_solve(*self.kernel_args, b.ctypes.data, self.work_at, x.ctypes.data)
-            return
-        assert self._lu is not None
-        x[self.free] = self._scale * self._lu.solve(self._scale * b[self.free])
+        lib.femp_lu_solve(*self.kernel_args, pointer(b), self.work_at, pointer(x))

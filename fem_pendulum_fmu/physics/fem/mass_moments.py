@@ -5,19 +5,17 @@ rotation u.M u and the cross form u.C v, were three products with the
 assembled 2n x 2n matrices (6 us each on the default mesh, 56 us at 0.005 m).
 M is diag(S, S) for the scalar mass S of a two-component field (NGSolve
 orders the x components' dofs first), and C is [[0, -S], [S, 0]], so one pass
-over S makes them all (fem/mass_moments_kernel.c). `BlockMass.of` checks that
+over S makes them all (core/fem_mass_moments.c). `BlockMass.of` checks that
 structure on the assembled matrices and gives None where it does not hold,
 for the outputs to keep the plain products.
 """
 
 from __future__ import annotations
 
-import ctypes
-
 import numpy as np
 import scipy.sparse as sp
 
-from .. import native
+from ..core import ffi, lib, pointer
 from ..sparse import int32_indices
 
 # how close the assembled blocks must be to diag(S, S) (and C to [[0, -S], [S, 0]]), relative to S's largest
@@ -29,10 +27,10 @@ class BlockMass:
     """M = diag(S, S) of a two-component field, by its scalar block S."""
 
     def __init__(self, scalar: sp.csr_matrix):
-        self._s, self._n, self._lib = scalar, scalar.shape[0], native.kernels()
-        self._args = (self._n, scalar.indptr.ctypes.data, scalar.indices.ctypes.data, scalar.data.ctypes.data)
+        self._s, self._n = scalar, scalar.shape[0]
+        self._args = (self._n, pointer(scalar.indptr), pointer(scalar.indices), pointer(scalar.data))
         self._out = np.zeros(3)
-        self._out_at = self._out.ctypes.data_as(ctypes.c_void_p)
+        self._out_at = pointer(self._out)
 
     @staticmethod
     def of(mass: sp.csr_matrix, cross: sp.csr_matrix | None = None) -> BlockMass | None:
@@ -54,19 +52,12 @@ class BlockMass:
 
     def square(self, a: np.ndarray) -> float:
         """a.M a."""
-        if self._lib is None:
-            n, s = self._n, self._s
-            return float(a[:n] @ (s @ a[:n]) + a[n:] @ (s @ a[n:]))
         a = np.ascontiguousarray(a, dtype=np.float64)
-        self._lib.femp_mass_moments(*self._args, a.ctypes.data, None, self._out_at)
+        lib.femp_mass_moments(*self._args, pointer(a), ffi.NULL, self._out_at)
         return float(self._out[0])
 
     def square_and_cross(self, a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
         """(a.M a, a.C b)."""
-        if self._lib is None:
-            n, s = self._n, self._s
-            sb_x, sb_y = s @ b[:n], s @ b[n:]
-            return self.square(a), float(a[n:] @ sb_x - a[:n] @ sb_y)
         a, b = (np.ascontiguousarray(x, dtype=np.float64) for x in (a, b))
-        self._lib.femp_mass_moments(*self._args, a.ctypes.data, b.ctypes.data, self._out_at)
+        lib.femp_mass_moments(*self._args, pointer(a), pointer(b), self._out_at)
         return float(self._out[0]), float(self._out[2])

@@ -39,7 +39,7 @@ import numpy as np
 import scipy.sparse as sp
 from ngsolve import GridFunction
 
-from .. import native
+from ..core import lib, pointer
 from .contact_update import ContactUpdate
 from .iteration import FusedIteration
 from .lu import HeldFactor
@@ -117,15 +117,8 @@ class Turn:
         self.iy = np.concatenate([ix + half, [space.nV + 1]])
         self.angle = angle  # best-fit rigid rotation of a displacement about the pivot
         self.ix, self.iy = self.ix.astype(np.int32), self.iy.astype(np.int32)
-        # femp_turned_solve's leading arguments (native.py)
-        self.kernel_args = (len(self.ix), self.ix.ctypes.data, self.iy.ctypes.data)
-
-    def apply(self, vec: np.ndarray, d: float) -> None:
-        """Turn vec in place by d (rad); the compiled path turns inside femp_turned_solve instead."""
-        c, s = math.cos(d), math.sin(d)
-        vx, vy = vec[self.ix], vec[self.iy]
-        vec[self.ix] = c * vx - s * vy
-        vec[self.iy] = s * vx + c * vy
+        # femp_turned_solve's leading arguments
+        self.kernel_args = (len(self.ix), pointer(self.ix), pointer(self.iy))
 
 
 def converged(size: float, last: float, tol: float) -> bool:
@@ -190,18 +183,17 @@ class HeldJacobianNewton:
         self._turn = turn
         self._nV = space.nV
         self._w_np = self.w.vec.FV().NumPy()  # the GridFunction's vector stays put
-        self._lib = native.kernels()
-        self._at = tuple(a.ctypes.data for a in (self._res_np, self._turned_np, self._corr_np, self._w_np))
+        self._at = tuple(pointer(a) for a in (self._res_np, self._turned_np, self._corr_np, self._w_np))
         self._load = load
         free, multipliers = np.array(space.X.FreeDofs(), dtype=bool), np.arange(space.X.ndof) >= space.nV
         self._factor = HeldFactor(free, None if inertia is None else inertia[0], multipliers)
         self._inertia_coeff = None if inertia is None else inertia[1]
-        self._jacobian = None if tangent is None or self._lib is None else self._compiled_jacobian(tangent)
+        self._jacobian = None if tangent is None else self._compiled_jacobian(tangent)
         self._split, self._fused = None, None  # one kernel call an iteration where the residual is the split one
-        if isinstance(residual, SplitResidual) and self._lib is not None:
+        if isinstance(residual, SplitResidual):
             vectors = (self._res_np, self._turned_np, self._corr_np, self._w_np)
             self._split = residual
-            self._fused = FusedIteration(self._lib, residual, turn.kernel_args, self._factor, vectors)
+            self._fused = FusedIteration(residual, turn.kernel_args, self._factor, vectors)
         # contact_update: the held Jacobian, assembled without the rigid wall's contact (the tangent's
         # with_contact False), is updated for it in each iteration (fem/contact_update.py)
         self._contact_update: ContactUpdate | None = None
@@ -298,32 +290,14 @@ class HeldJacobianNewton:
     def _update(self, turn: float) -> float:
         """w -= the Newton correction for the residual in self._res; its largest displacement entry
         (-1 if it is not finite)."""
-        if self._lib is None:
-            cv = self._correction(turn)
-            if not np.all(np.isfinite(cv)):
-                return -1.0
-            self._w_np -= cv
-            return float(np.max(np.abs(cv[: self._nV])))
         res_at, turned_at, corr_at, w_at = self._at
-        lib, factor, n = self._lib, self._factor, len(self._w_np)
+        factor, n = self._factor, len(self._w_np)
         if turn == 0.0:
             lib.femp_lu_solve(*factor.kernel_args, res_at, factor.work_at, corr_at)
         else:
             lu = (*factor.kernel_args, res_at, turned_at, factor.work_at, corr_at, n)
             lib.femp_turned_solve(*self._turn.kernel_args, math.cos(turn), math.sin(turn), *lu)
         return float(lib.femp_update(n, self._nV, corr_at, w_at))
-
-    def _correction(self, turn: float) -> np.ndarray:
-        """The Newton correction Q J^-1 Q^T res of the held Jacobian J turned by `turn`, for the residual
-        in self._res (a view of the solver's correction vector, valid until the next call)."""
-        if turn == 0.0:
-            self._factor.solve(self._res_np, self._corr_np)
-            return self._corr_np
-        self._turned_np[:] = self._res_np
-        self._turn.apply(self._turned_np, -turn)
-        self._factor.solve(self._turned_np, self._corr_np)
-        self._turn.apply(self._corr_np, turn)
-        return self._corr_np
 
     def _compiled_jacobian(self, tangent: Tangent) -> Callable[[ngs.BaseVector], np.ndarray]:
         """The Jacobian on the full form's pattern, learnt from one assembly here (its entries unused): every

@@ -14,9 +14,9 @@ are therefore assembled once:
   its load Cof(F) N is linear in F for 2 x 2 matrices.
 
 The discrete-gradient stress is summed at the form's own integration points
-from precomputed basis gradients (`ElasticTerms`: physics/fem/elastic_kernel.c,
-or numpy where it is not compiled), and only the wall contact, on the head
-elements within reach, is integrated by NGSolve. The sum is the same residual
+from precomputed basis gradients (`ElasticTerms`: physics/core/fem_elastic.c),
+and only the wall contact, on the head elements within reach, is integrated
+by NGSolve. The sum is the same residual
 as the full form's up to round-off (tests/test_fem_residual.py), and the full
 form stays the source of the Newton Jacobian.
 """
@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import ngsolve as ngs
 import numpy as np
@@ -33,10 +33,10 @@ import scipy.sparse as sp
 from ngsolve import H1, TRIG, VOL, BilinearForm, Cof, Grad, InnerProduct, IntegrationRule, LinearForm, specialcf
 from ngsolve.fem import BaseMappedIntegrationPoint
 
-from .. import material, native
+from .. import material
+from ..core import ffi, lib, pointer
 from ..scene import Material
 from ..sparse import nonzero_entries, require_halves_share_columns, scipy_matrix
-from . import material_points as points
 from .space import FemSpace
 
 if TYPE_CHECKING:
@@ -60,12 +60,11 @@ class LinearTerms:
         # the torque's line load per unit torque_load: -weight Cof(I + G) N = -weight (N + Cof(G) N)
         torque_rest = LinearForm(-InnerProduct(torque_weight * N, du) * ngs.ds("hinge"))
         torque_grad = BilinearForm(-InnerProduct(torque_weight * (Cof(Grad(u).Trace()) * N), du) * ngs.ds("hinge"))
-        self._lib = native.kernels()
         # without NGSolve's stored zeros, half the mass's entries, read every iteration (docs/fem.md, change 25)
         forms = (mass, hinge, torque_grad)
         self.mass, self.hinge, self.torque_grad = (nonzero_entries(scipy_matrix(f.Assemble().mat)) for f in forms)
         self._args = [
-            (m.shape[0], m.indptr.ctypes.data, m.indices.ctypes.data, m.data.ctypes.data)
+            (m.shape[0], pointer(m.indptr), pointer(m.indices), pointer(m.data))
             for m in (self.mass, self.hinge, self.torque_grad)
         ]
         self.gravity = gravity.Assemble().vec.FV().NumPy().copy()
@@ -74,7 +73,7 @@ class LinearTerms:
         self._coeffs = (0.0, 0.0)
         self._constant, self._w0, self._wv = np.zeros(X.ndof), np.zeros(X.ndof), np.zeros(X.ndof)
         self._moved = np.zeros(X.ndof)  # w - u0 - dt v0 (the multipliers' entries unused: M is 0 there)
-        self._moved_at = self._moved.ctypes.data
+        self._moved_at = pointer(self._moved)
 
     def load(self, u0: np.ndarray, v0: np.ndarray, dt: float, torque_load: float) -> None:
         """The step's inputs: the part of the residual that does not depend on w is computed here, once.
@@ -91,10 +90,10 @@ class LinearTerms:
             self._add_torque_grad(0.5 * torque_load, w0, constant)
         self._coeffs = (inertia, 0.5 * torque_load)
 
-    def kernel_arrays(self) -> tuple[list[tuple], tuple[int, int, int]]:
-        """The kernel's arguments of the mass, hinge and torque matrices (rows, indptr, indices, data
-        addresses), and the addresses of the constant part, u0 + dt v0 and the scratch w - u0 - dt v0."""
-        return self._args, (self._constant.ctypes.data, self._wv.ctypes.data, self._moved_at)
+    def kernel_arrays(self) -> tuple[list[tuple], tuple[Any, Any, Any]]:
+        """The core's arguments of the mass, hinge and torque matrices (rows, indptr, indices, data
+        pointers), and the pointers to the constant part, u0 + dt v0 and the scratch w - u0 - dt v0."""
+        return self._args, (pointer(self._constant), pointer(self._wv), self._moved_at)
 
     @property
     def coefficients(self) -> tuple[float, float]:
@@ -108,13 +107,10 @@ class LinearTerms:
 
     def _add_torque_grad(self, a: float, x: np.ndarray, y: np.ndarray) -> None:
         """y += a T1 x, T1 the torque load's matrix."""
-        if self._lib is None:
-            y += a * (self.torque_grad @ x)
-        else:
-            self._lib.femp_csr_axpy(*self._args[2], a, x.ctypes.data, y.ctypes.data)
+        lib.femp_csr_axpy(*self._args[2], a, pointer(x), pointer(y))
 
-    def add(self, w: np.ndarray, out: np.ndarray, at: tuple[int, int], first: bool) -> None:
-        """out += the linear terms' residual at w (both contiguous, at the addresses `at`); first: out
+    def add(self, w: np.ndarray, out: np.ndarray, at: tuple[Any, Any], first: bool) -> None:
+        """out += the linear terms' residual at w (both contiguous, at the pointers `at`); first: out
         holds nothing yet, and is overwritten."""
         inertia, half_torque = self._coeffs
         if first:
@@ -122,15 +118,8 @@ class LinearTerms:
         else:
             out += self._constant
         np.subtract(w, self._wv, out=self._moved)
-        vectors = (self._moved, w, w)
-        if self._lib is None:
-            matrices = (self.mass, self.hinge, self.torque_grad)
-            for a, mat, vec in zip((inertia, 1.0, half_torque), matrices, vectors, strict=True):
-                if a != 0.0:
-                    out += a * (mat @ vec)
-            return
         at_vectors = (self._moved_at, at[0], at[0])
-        axpy = self._lib.femp_csr_axpy
+        axpy = lib.femp_csr_axpy
         for a, args, x in zip((inertia, 1.0, half_torque), self._args, at_vectors, strict=True):
             if a != 0.0:
                 axpy(*args, a, x, at[1])
@@ -230,20 +219,19 @@ class _Body:
     C1: np.ndarray
 
     def kernel_args(self, nS: int) -> tuple[tuple, tuple]:
-        """The kernel's arguments before u and between u and out (addresses of arrays that stay put)."""
+        """The core's arguments before u and between u and out (pointers to arrays that stay put)."""
         rule = self.rule
-        head = (len(rule.weights), self.indptr.ctypes.data, self.indices.ctypes.data, rule.grad.data.ctypes.data, nS)
-        middle: tuple[float, ...] = (self.F0.ctypes.data, self.C0.ctypes.data, rule.weights.ctypes.data)
-        middle += (self.lame_lambda, self.mu, len(self.gauss_w), self.gauss_s.ctypes.data, self.gauss_w.ctypes.data)
+        head = (len(rule.weights), pointer(self.indptr), pointer(self.indices), pointer(rule.grad.data), nS)
+        middle: tuple[Any, ...] = (pointer(self.F0), pointer(self.C0), pointer(rule.weights))
+        middle += (self.lame_lambda, self.mu, len(self.gauss_w), pointer(self.gauss_s), pointer(self.gauss_w))
         return head, middle
 
 
 class ElasticTerms:
     """The discrete-gradient stress term h P(F0, F1) : Grad(du) of every body: the same integrand and
-    rule as the step form's, in the compiled kernel (native.py) or else in numpy (fem/material_points.py)."""
+    rule as the step form's, in the compiled core (core/fem_elastic.c)."""
 
     def __init__(self, space: FemSpace, dg_points: Callable[[Material], int]):
-        self._lib = native.kernels()
         self._bodies = []
         for region, mat in space.bodies:
             rule = volume_rule(space, region)
@@ -268,13 +256,6 @@ class ElasticTerms:
         self._args = [b.kernel_args(self.nS) for b in self._bodies]
         self._checked: np.ndarray | None = None  # the displacement whose F and C the bodies' F1 and C1 hold
 
-    def _deformation_gradient(self, rule: VolumeRule, u: np.ndarray) -> np.ndarray:
-        """F at the rule's points as (4, Q) (numpy form)."""
-        grads = rule.grad @ u[: 2 * self.nS].reshape(2, self.nS).T  # (2 Q, 2): d/dx, d/dy of (u_x, u_y)
-        q = len(rule.weights)
-        gx, gy = grads[:q], grads[q:]
-        return np.stack((1.0 + gx[:, 0], gy[:, 0], gx[:, 1], 1.0 + gy[:, 1]))
-
     def load(self, u0: np.ndarray) -> None:
         """The step's start displacement: its F and C (copied where min_det_F made them, at its end)."""
         if u0 is self._checked:
@@ -284,22 +265,13 @@ class ElasticTerms:
             return
         u0 = np.ascontiguousarray(u0, dtype=float)
         for (head, _), b in zip(self._args, self._bodies, strict=True):
-            if self._lib is not None:
-                self._lib.femp_deformation(*head, u0.ctypes.data, b.F0.ctypes.data, b.C0.ctypes.data)
-            else:
-                F0 = self._deformation_gradient(b.rule, u0)
-                b.F0[:] = F0.T
-                b.C0[:] = points.right_cauchy_green(F0).T
+            lib.femp_deformation(*head, pointer(u0), pointer(b.F0), pointer(b.C0))
 
-    def add(self, u: np.ndarray, out: np.ndarray, at: tuple[int, int]) -> None:
+    def add(self, u: np.ndarray, out: np.ndarray, at: tuple[Any, Any]) -> None:
         """out[:nV] += the stress term's residual at the end displacement u (both contiguous, at the
-        addresses `at`)."""
-        if self._lib is not None:
-            for head, middle in self._args:
-                self._lib.femp_stress_residual(*head, at[0], *middle, at[1])
-            return
-        for b in self._bodies:
-            self._add_numpy(b, u, out)
+        pointers `at`)."""
+        for head, middle in self._args:
+            lib.femp_stress_residual(*head, at[0], *middle, at[1])
 
     @property
     def kernel_args(self) -> list[tuple[tuple, tuple]]:
@@ -313,56 +285,34 @@ class ElasticTerms:
         return [point_blocks(b.rule.grad, len(b.rule.weights), self.nS) for b in self._bodies]
 
     def add_tangent(self, u: np.ndarray, slots: list[tuple[np.ndarray, np.ndarray]], out: np.ndarray) -> None:
-        """out[slots] += the stress term's Jacobian in the end displacement u (compiled kernel only), each
-        body's slots the positions in out of its local_unknowns' pairs."""
-        assert self._lib is not None
-        at = u.ctypes.data
+        """out[slots] += the stress term's Jacobian in the end displacement u, each body's slots the positions
+        in out of its local_unknowns' pairs."""
+        at = pointer(u)
         for (head, middle), (start, slot) in zip(self._args, slots, strict=True):
-            self._lib.femp_stress_tangent(*head, at, *middle, start.ctypes.data, slot.ctypes.data, out.ctypes.data)
+            lib.femp_stress_tangent(*head, at, *middle, pointer(start), pointer(slot), pointer(out))
 
     def min_det_F(self, u: np.ndarray) -> float:
         """The smallest det F of the displacement u at the rule's points of every body."""
-        if self._lib is not None:
-            return self._deformation_min_det(u)
-        dets = []
-        for b in self._bodies:
-            f00, f01, f10, f11 = self._deformation_gradient(b.rule, u)
-            dets.append(float(np.min(f00 * f11 - f01 * f10)))
-        return min(dets)
+        return self._deformation_min_det(u)
 
     def _deformation_min_det(self, u: np.ndarray) -> float:
         """femp_min_det's result by femp_deformation, which keeps u's F and C for load (u known by identity)."""
-        assert self._lib is not None
-        at, bodies = np.ascontiguousarray(u, dtype=float).ctypes.data, zip(self._args, self._bodies, strict=True)
-        dets = [self._lib.femp_deformation(*head, at, b.F1.ctypes.data, b.C1.ctypes.data) for (head, _), b in bodies]
+        at, bodies = pointer(np.ascontiguousarray(u, dtype=float)), zip(self._args, self._bodies, strict=True)
+        dets = [lib.femp_deformation(*head, at, pointer(b.F1), pointer(b.C1)) for (head, _), b in bodies]
         self._checked = u
         return min(dets)
 
     def strain_energy(self, u: np.ndarray) -> float:
         """The strain energy of the displacement u, integrated by the rule of the stress term: over a step
         its change is what the discrete-gradient stress does as work (material.averaged_pk2_stress)."""
-        if self._lib is not None:  # from u's C where min_det_F kept it (the same sums), else from u
-            lib, at, kept = self._lib, np.ascontiguousarray(u, dtype=float).ctypes.data, u is self._checked
-            return sum(
-                lib.femp_strain_energy_of(head[0], b.C1.ctypes.data, b.rule.weights.ctypes.data, b.lame_lambda, b.mu)
-                if kept
-                else lib.femp_strain_energy(*head, at, b.rule.weights.ctypes.data, b.lame_lambda, b.mu)
-                for (head, _), b in zip(self._args, self._bodies, strict=True)
-            )
-        total = 0.0
-        for b in self._bodies:
-            C = points.right_cauchy_green(self._deformation_gradient(b.rule, u))
-            total += float(b.rule.weights @ points.energy_density(C, b.lame_lambda, b.mu))
-        return total
-
-    def _add_numpy(self, b: _Body, u: np.ndarray, out: np.ndarray) -> None:
-        nS, F0 = self.nS, b.F0.T
-        F1 = self._deformation_gradient(b.rule, u)
-        S = points.averaged_pk2_stress(b.C0.T, points.right_cauchy_green(F1), b.lame_lambda, b.mu, len(b.gauss_w))
-        wP = b.rule.weights * points.first_piola(0.5 * (F0 + F1), S)
-        res = b.rule.grad.T @ np.column_stack((np.concatenate((wP[0], wP[1])), np.concatenate((wP[2], wP[3]))))
-        out[:nS] += res[:, 0]
-        out[nS : 2 * nS] += res[:, 1]
+        # from u's C where min_det_F kept it (the same sums), else from u
+        at, kept = pointer(np.ascontiguousarray(u, dtype=float)), u is self._checked
+        return sum(
+            lib.femp_strain_energy_of(head[0], pointer(b.C1), pointer(b.rule.weights), b.lame_lambda, b.mu)
+            if kept
+            else lib.femp_strain_energy(*head, at, pointer(b.rule.weights), b.lame_lambda, b.mu)
+            for (head, _), b in zip(self._args, self._bodies, strict=True)
+        )
 
 
 class SplitResidual:
@@ -375,7 +325,7 @@ class SplitResidual:
     ):
         self.elastic, self.linear, self._contact, self._active = elastic, linear, contact, active
         self._nV = 2 * elastic.nS
-        self._views: dict[int, tuple[ngs.BaseVector, np.ndarray, int]] = {}
+        self._views: dict[int, tuple[ngs.BaseVector, np.ndarray, Any]] = {}
         self._compiled: RigidContactKernel | None = None
 
     def use_compiled_contact(self, compiled: RigidContactKernel | None) -> None:
@@ -421,9 +371,9 @@ class SplitResidual:
         return self._compiled
 
     @property
-    def compiled_contact_address(self) -> int:
-        """The compiled term's struct for the fused iteration (fem/iteration.py); 0 without one."""
-        return 0 if self._compiled is None else self._compiled.address
+    def compiled_contact_address(self) -> Any:
+        """The compiled term's struct for the fused iteration (fem/iteration.py); NULL without one."""
+        return ffi.NULL if self._compiled is None else self._compiled.address
 
     def fused_contact(self, w: ngs.BaseVector, res: ngs.BaseVector) -> int:
         """The contact part of a fused iteration: 2 where the kernel makes the compiled term itself, else
@@ -446,10 +396,10 @@ class SplitResidual:
         self.linear.add(wn, out, (w_at, out_at), first=first)
         self.elastic.add(wn, out, (w_at, out_at))
 
-    def _view(self, vec: ngs.BaseVector) -> tuple[np.ndarray, int]:
-        """The numpy view of an ngsolve vector and its address, taken once per vector (3 us per call)."""
+    def _view(self, vec: ngs.BaseVector) -> tuple[np.ndarray, Any]:
+        """The numpy view of an ngsolve vector and its pointer, taken once per vector (3 us per call)."""
         key = id(vec)
         if key not in self._views:
             view = vec.FV().NumPy()
-            self._views[key] = (vec, view, view.ctypes.data)
+            self._views[key] = (vec, view, pointer(view))
         return self._views[key][1:]

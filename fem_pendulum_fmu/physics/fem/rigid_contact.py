@@ -1,5 +1,5 @@
-"""The rigid wall's contact term of the step residual in the compiled kernel (femp_rigid_contact,
-fem/rigid_contact_kernel.c), in place of its NGSolve form's `Apply`.
+"""The rigid wall's contact term of the step residual in the compiled core (femp_rigid_contact,
+core/fem_rigid_contact.c), in place of its NGSolve form's `Apply`.
 
 In an impact every Newton iteration applied that form: on the steel scene's mesh
 about 20 us a call, an eighth of an impact's time once the rest of the iteration
@@ -9,27 +9,24 @@ the discrete-gradient force of contact_law.py from the step's start position to
 the iterate's, times the test functions there (fem/head.py's trace matrix), the
 point's ds weight and the thickness. The kernel makes it on the points of the
 contact set's elements only. Its Jacobian at the points (`stiffness`) updates the solver's held
-factors (fem/contact_update.py); the form's linearisation serves where the kernels are not built.
+factors (fem/contact_update.py).
 """
 
 from __future__ import annotations
-
-import ctypes
 
 import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 from ngsolve import specialcf
 
-from .. import native
+from ..core import ffi, lib, pointer
 from .head import HeadBoundary
 from .space import FemSpace
 
 
 def compiled_contact(space: FemSpace, head: HeadBoundary) -> RigidContactKernel | None:
-    """The compiled term for a rigid wall with contact on, where the kernels are built; else None."""
-    lib = native.kernels()
-    return RigidContactKernel(lib, space, head) if lib is not None and space.contact_on else None
+    """The compiled term for a rigid wall with contact on; else None."""
+    return RigidContactKernel(space, head) if space.contact_on else None
 
 
 def ds_weights(space: FemSpace, head: HeadBoundary) -> np.ndarray:
@@ -40,21 +37,13 @@ def ds_weights(space: FemSpace, head: HeadBoundary) -> np.ndarray:
     return np.tile(rule, len(head.elements)) * np.hypot(tangent[:, 0], tangent[:, 1])
 
 
-class _Contact(ctypes.Structure):
-    """struct femp_rigid_contact of fem/rigid_contact_kernel.c, field for field."""
-
-    _fields_ = [("n", ctypes.c_int), ("points", ctypes.c_void_p), ("P", ctypes.c_int), ("indptr", ctypes.c_void_p)]
-    _fields_ += [(name, ctypes.c_void_p) for name in ("indices", "data", "X", "p0", "weights", "block")]
-    _fields_ += [("k", ctypes.c_double)]
-
-
 class RigidContactKernel:
     """apply(w, res): res = the rigid-wall contact term at w on the loaded contact set (False, res untouched,
     while the set is empty); load(u0) and activate(elements) follow the step's inputs. `address` is its
-    struct's, for the fused iteration (fem/iteration.py), which makes the term in the same call."""
+    struct, for the fused iteration (fem/iteration.py), which makes the term in the same call."""
 
-    def __init__(self, lib: ctypes.CDLL, space: FemSpace, head: HeadBoundary):
-        self._lib, self._head = lib, head
+    def __init__(self, space: FemSpace, head: HeadBoundary):
+        self._head = head
         trace = head.trace
         indptr = np.ascontiguousarray(trace.indptr, dtype=np.int32)
         indices = np.ascontiguousarray(trace.indices, dtype=np.int32)
@@ -68,10 +57,12 @@ class RigidContactKernel:
         self._points: np.ndarray = np.zeros(0, dtype=np.int32)
         self._per_element = len(weights) // len(head.elements)  # the points of local element e: nq e + 0..nq-1
         self._keep = (indptr, indices, data, weights, block)  # the arrays the struct points to
-        c = self._c = _Contact(0, self._points.ctypes.data, len(weights), indptr.ctypes.data, indices.ctypes.data)
-        c.data, c.X, c.p0, c.weights = data.ctypes.data, self._X.ctypes.data, self._p0.ctypes.data, weights.ctypes.data
-        c.block, c.k = block.ctypes.data, space.scene.contact.stiffness
-        self.address = ctypes.addressof(c)
+        c = self._c = ffi.new("struct femp_rigid_contact *")
+        c.n, c.points, c.P = 0, pointer(self._points), len(weights)
+        c.indptr, c.indices, c.data = pointer(indptr), pointer(indices), pointer(data)
+        c.X, c.p0, c.weights = pointer(self._X), pointer(self._p0), pointer(weights)
+        c.block, c.k = pointer(block), space.scene.contact.stiffness
+        self.address = c
 
     def load(self, u0: np.ndarray) -> None:
         """The step's start displacement: its positions at the points are made once a point is listed."""
@@ -84,13 +75,13 @@ class RigidContactKernel:
             return
         nq = self._per_element
         self._points = (np.asarray(elements, dtype=np.int32)[:, None] * nq + np.arange(nq, dtype=np.int32)).ravel()
-        self._c.n, self._c.points = len(self._points), self._points.ctypes.data
+        self._c.n, self._c.points = len(self._points), pointer(self._points)
         if len(self._points):  # X + trace u0 as the head's positions at u0 hold it (made for the contact set)
             self._p0.reshape(2, -1)[:] = self._head.distances(self._u0)[0].T
 
     def apply(self, w: np.ndarray, res: np.ndarray) -> bool:
         """res = the term at w (float64 arrays over the solver's unknowns, displacements first)."""
-        return bool(self._lib.femp_rigid_contact(self.address, w.ctypes.data, len(res), res.ctypes.data))
+        return bool(lib.femp_rigid_contact(self._c, pointer(w), len(res), pointer(res)))
 
     @property
     def points(self) -> np.ndarray:
@@ -107,12 +98,12 @@ class RigidContactKernel:
         (femp_rigid_contact_stiffness)."""
         n = len(self._points)
         out = np.empty((3, n))
-        self._lib.femp_rigid_contact_stiffness(self.address, w.ctypes.data, n, *(row.ctypes.data for row in out))
+        lib.femp_rigid_contact_stiffness(self._c, pointer(w), n, *(pointer(row) for row in out))
         return out[0], out[1], out[2]
 
     def resultant(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
         """The force of the wall on the pendulum that the term applies from the points' positions p0 to p1
         ((P, 2) arrays, C order) over all points; p0 = p1: the penalty force at them (N, vector)."""
         out, a, b = np.empty(2), np.ascontiguousarray(p0, dtype=float), np.ascontiguousarray(p1, dtype=float)
-        self._lib.femp_rigid_contact_resultant(self.address, a.ctypes.data, b.ctypes.data, out.ctypes.data)
+        lib.femp_rigid_contact_resultant(self._c, pointer(a), pointer(b), pointer(out))
         return out

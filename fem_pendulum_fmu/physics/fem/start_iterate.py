@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import native
+from ..core import ffi, lib, pointer
 
 # past misses the prediction combines, and the steps the recurrence is fitted over: on the steel scene's swing
 # the prediction missed by a median 2.2e-3 of the miss with 6 and 4, 1.3e-3 with 8 and 4, 8e-4 with 8 and 8
@@ -40,11 +40,11 @@ SAME_STEP = 1e-9  # relative difference of two step sizes taken as equal (an adv
 class GuessErrors:
     """The misses u1 - (u0 + dt drift) of the last equal free-flight steps of size dt, newest first (rows of
     `errors`), their inner products (`gram`) and the next miss they predict (`next_miss`, None where the fit
-    declines), in one block (the kernel's layout, start_iterate_kernel.c). Never changed in place."""
+    declines), in one block (the core's layout, core/fem_start_iterate.c). Never changed in place."""
 
     def __init__(self, dt: float, block: np.ndarray, k: int, n: int, predicted: bool):
         self.dt, self.k, self.n, self._block, self._predicted = dt, k, n, block, predicted
-        self.address = block.ctypes.data if native.kernels() is not None else 0
+        self.address = pointer(block)
 
     @property
     def errors(self) -> np.ndarray:
@@ -90,14 +90,7 @@ def _predict(block: np.ndarray, k: int, n: int) -> bool:
     declines (or there are fewer than KEPT misses)."""
     if k < KEPT:
         return False
-    lib = native.kernels()
-    if lib is not None:
-        return bool(lib.femp_misses_predict(n, k, block.ctypes.data, DEPTH, WINDOW, RIDGE, FIT_LEFT))
-    predicted = _predicted_by_numpy(block[: k * n].reshape(k, n), block[k * n : k * (n + k)].reshape(k, k))
-    if predicted is None:
-        return False
-    block[k * (n + k) :] = predicted
-    return True
+    return bool(lib.femp_misses_predict(n, k, pointer(block), DEPTH, WINDOW, RIDGE, FIT_LEFT))
 
 
 def recorded(history: GuessErrors | None, dt: float, miss: np.ndarray) -> GuessErrors:
@@ -108,18 +101,9 @@ def recorded(history: GuessErrors | None, dt: float, miss: np.ndarray) -> GuessE
     k = 1 if kept is None else min(kept.k + 1, KEPT)
     block = np.empty(k * (n + k) + n)
     block[:n] = miss
-    lib = native.kernels()
-    if lib is not None:
-        at = block.ctypes.data
-        old = (0, 0) if kept is None else (kept.k, kept.address)
-        predicted = lib.femp_misses_record(n, *old, k, at, DEPTH, WINDOW, RIDGE, FIT_LEFT)
-        return GuessErrors(dt, block, k, n, bool(predicted))
-    errors, gram = block[: k * n].reshape(k, n), block[k * n : k * (n + k)].reshape(k, k)
-    if kept is not None:
-        errors[1:] = kept.errors[: k - 1]
-        gram[1:, 1:] = kept.gram[: k - 1, : k - 1]
-    gram[0, :] = gram[:, 0] = errors @ miss
-    return GuessErrors(dt, block, k, n, _predict(block, k, n))
+    old = (0, ffi.NULL) if kept is None else (kept.k, kept.address)
+    predicted = lib.femp_misses_record(n, *old, k, pointer(block), DEPTH, WINDOW, RIDGE, FIT_LEFT)
+    return GuessErrors(dt, block, k, n, bool(predicted))
 
 
 def predicted_miss(history: GuessErrors | None, dt: float) -> np.ndarray | None:
@@ -129,24 +113,3 @@ def predicted_miss(history: GuessErrors | None, dt: float) -> np.ndarray | None:
     if history is None or not _same_step(history.dt, dt):
         return None
     return history.next_miss
-
-
-def _predicted_by_numpy(errors: np.ndarray, g: np.ndarray) -> np.ndarray | None:
-    """The prediction without the kernel: the same fit and test (equal up to round-off)."""
-    window = np.arange(WINDOW)[:, None]
-    rows = window + 1 + np.arange(DEPTH)  # (WINDOW, DEPTH): the misses each newer one is fitted from
-    normal = g[rows[:, :, None], rows[:, None, :]].sum(axis=0)
-    rhs = g[rows, window].sum(axis=0)
-    largest = float(np.max(np.diag(normal)))
-    if not largest > 0.0:
-        return None
-    try:
-        factor = np.linalg.cholesky(normal + RIDGE * largest * np.eye(DEPTH))
-    except np.linalg.LinAlgError:
-        return None
-    c = np.linalg.solve(factor.T, np.linalg.solve(factor, rhs))
-    total = float(np.trace(g[:WINDOW, :WINDOW]))
-    left = total + float(c @ (normal @ c - 2.0 * rhs))
-    if not left <= FIT_LEFT * total:
-        return None
-    return c @ errors[:DEPTH]

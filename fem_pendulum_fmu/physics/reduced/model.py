@@ -25,9 +25,9 @@ Gonzalez's correction in the mass metric. Over every step H changes by exactly
 the torque's work tau (d theta + beta . dq), so impacts neither gain nor lose
 energy. Step sizes come from stepping.py, as for the other fidelities.
 
-The step, the contact terms and the gap run in physics/reduced/reduced_kernel.c
-(reduced/kernel.py) where a C compiler built it; the numpy forms are the same
-computation, the fallback and the kernel's test reference.
+The step, the contact terms and the gap run in the compiled core
+(physics/core/reduced_step.c, bound by reduced/kernel.py); the numpy forms of
+the same computation are its test reference (tests/test_reduced_native.py).
 
 This class puts the pieces together and implements the protocol: dynamics.py (M(q), gravity),
 potential.py, head.py (the head points and their culling), contact.py (the penalty terms and the

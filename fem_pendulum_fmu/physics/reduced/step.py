@@ -1,5 +1,5 @@
 """The reduced model's energy-consistent step: Newton on the discrete-gradient equations, in numpy
-(NewtonStep, the fallback and the compiled kernel's test reference) or in physics/reduced/reduced_kernel.c
+(NewtonStep, the compiled core's test reference) or in physics/core/reduced_step.c
 (CompiledStep, bound to the model's data by `bind_kernel`).
 
 Converged: the energy imbalance within ENERGY_TOL and the last update within UPDATE_TOL of the
@@ -270,7 +270,7 @@ class NewtonStep:
 
 
 class CompiledStep:
-    """NewtonStep's step in physics/reduced/reduced_kernel.c; the end's potential parts remembered for
+    """NewtonStep's step in physics/core/reduced_step.c; the end's potential parts remembered for
     the outputs and the next step's start."""
 
     def __init__(self, kernel: ReducedKernel, potential: Potential):
@@ -295,7 +295,7 @@ def bind_kernel(
     torque_unit: np.ndarray,
     contact_on: bool,
 ) -> ReducedKernel | None:
-    """The compiled step (physics/reduced/reduced_kernel.c) on a model's data, or None (numpy forms)."""
+    """The compiled step (physics/core/reduced_step.c) on a model's data."""
     runs, block = head.runs, head.block
     return reduced_kernel(
         **strain.kernel_fields(),

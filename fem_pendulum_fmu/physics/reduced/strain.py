@@ -1,7 +1,8 @@
 """Strain energy of the reduced fidelity's modal field (reduced/model.py has the model's energies).
 
 Stiff bodies use the quadratic modal energy, soft ones the FE model's Neo-Hookean law integrated
-over the mesh's quadrature points, compiled (physics/reduced/reduced_kernel.c) or in numpy: the reduced
+over the mesh's quadrature points in the compiled core (physics/core/reduced_step.c; the numpy form is its
+test reference): the reduced
 model's hot loop never calls into the FE assembly.
 """
 

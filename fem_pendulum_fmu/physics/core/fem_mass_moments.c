@@ -1,11 +1,12 @@
-/* The quadratic forms of the mass that the outputs read at every step (fem/mass_moments.py; loaded by
- * native.py).
+/* The quadratic forms of the mass that the outputs read at every step (fem/mass_moments.py).
  *
  * A two-component field's mass is diag(S, S) with S the scalar mass (the x components' dofs first, then the
  * y components'), and the cross form a.C b = int rho h (a_y b_x - a_x b_y) is a_y.S b_x - a_x.S b_y. Three
- * products with the assembled 2n x 2n matrices read S six times; this reads it once. Plain C, no Python
- * API: called through ctypes, the sums in a fixed order.
+ * products with the assembled 2n x 2n matrices read S six times; this reads it once. The sums run in a fixed
+ * order.
  */
+
+#include "femp_core.h"
 
 /* out[0] = a.M a; with b (else NULL): out[1] = b.M b and out[2] = a.C b. a and b hold 2n entries. */
 void femp_mass_moments(int n, const int *indptr, const int *indices, const double *data, const double *a,

@@ -1,4 +1,4 @@
-/* The rigid wall's contact term of the energy-momentum step residual (loaded by native.py; fem/rigid_contact.py).
+/* The rigid wall's contact term of the energy-momentum step residual (fem/rigid_contact.py).
  *
  * The same law as the coefficient functions of fem/contact_law.py, branch for branch: the depth below the
  * nearest face of the block and its normal, the discrete gradient (Phi(d1) - Phi(d0)) / (d1 - d0) of the
@@ -6,6 +6,7 @@
  * head point i the end position is X_i + (E u)_i (E: CSR, 2P rows, x components then y), the force f_i is
  * that law's from p0_i to it, and res gets -w_i f_i . E_i (w_i: the ds weight times the thickness).
  */
+#include "femp_core.h"
 
 /* depth below the nearest face of the block (x_min, x_max, y_min, y_max) and that face's inward normal's
  * opposite, in contact_law.depth_and_gradient's order of faces and comparisons */
@@ -42,14 +43,6 @@ static double row_dot(const int *indptr, const int *indices, const double *data,
     return sum;
 }
 
-struct femp_rigid_contact {
-    int n; /* listed points */
-    const int *points;
-    int P; /* all points */
-    const int *indptr, *indices;
-    const double *data, *X, *p0, *weights, *block; /* X and p0: the P x coordinates, then the y */
-    double k;
-};
 
 /* If points are listed: res = the contact term at the displacement u (the first entries of w) over them, zero
  * elsewhere (size entries), and 1; else res untouched, and 0 */

@@ -1,4 +1,4 @@
-/* The reduced fidelity's step as one compiled call (loaded by native.py).
+/* The reduced fidelity's step as one compiled call (reduced/kernel.py).
  *
  * The same computation as NewtonStep.step in reduced/step.py, with the
  * strain energy of reduced/strain.py and the wall contact of
@@ -6,45 +6,15 @@
  * the discrete-gradient equations with the Jacobian of first order in the step,
  * and the energy-balance test. A step is 13 unknowns by default, so numpy's
  * per-call overhead was most of its cost (docs/reduced.md). Plain C, no
- * Python API: it is called through ctypes.
+ * Python API.
  */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-/* Field order and types must match KernelData in reduced/kernel.py. */
-typedef struct {
-    int m; /* modes; z = (theta, q) has n = m + 1 entries */
-    double inertia0, g, hk;
-    const double *gyro;         /* (m, m) */
-    const double *a;            /* (m) */
-    const double *first_moment; /* (2) */
-    const double *moment_modes; /* (2, m) */
-    const double *q_unit;       /* (n): generalised force of a unit torque */
-    const double *omega2;       /* (m) */
-    int neo;                    /* 1: Neo-Hookean strain at nqp points, 0: quadratic */
-    int nqp;
-    const double *GT;   /* (m, nqp, 4): d w_i / d x_j of mode m at each point, i j = 00 01 10 11 */
-    const double *qw;   /* (nqp) weights times thickness */
-    const double *k_mu; /* (m, m): mu sum_p qw_p GT_p^T GT_p, the constant part of the tangent */
-    double lame_lambda, mu;
-    double *work;       /* (nqp (4 + 10 m)) scratch of the strain terms */
-    int contact_on;
-    double x_min, x_max, y_min, y_max;
-    double head_cx, head_cy, head_radius;
-    const double *phi_peak; /* (m) */
-    int P;
-    const double *head_X;   /* (P, 2) */
-    const double *head_phi; /* (P, 2, m) */
-    const double *head_w;   /* (P) */
-    int groups;
-    const int *group_start;       /* (groups + 1): runs of consecutive head points */
-    const double *group_centre;   /* (groups, 2) */
-    const double *group_radius;   /* (groups) */
-    const double *group_peak;     /* (groups, m) */
-    int max_it;
-    double update_tol, energy_tol, stall_tol;
-} Reduced;
+#include "femp_core.h"
+
+typedef struct femp_reduced Reduced;
 
 typedef struct {
     int active; /* some head point inside the block */

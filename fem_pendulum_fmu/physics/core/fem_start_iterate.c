@@ -1,11 +1,12 @@
-/* The start iterate's misses and their recurrence (fem/start_iterate.py; loaded by native.py).
+/* The start iterate's misses and their recurrence (fem/start_iterate.py).
  *
  * At the steel scene's 302 unknowns a step's iteration costs about 35 us; numpy spent more than that on the
  * inner products, the normal equations and their solve in per-call overhead. femp_misses_record makes a
- * step's record and the next prediction in one call. Plain C, no Python API: called through ctypes, the
- * sums in a fixed order.
+ * step's record and the next prediction in one call. The sums run in a fixed order.
  */
 #include <math.h>
+
+#include "femp_core.h"
 
 #define MAX_DEPTH 16
 

@@ -1,14 +1,15 @@
-/* The FE step form's stress term at its integration points, as one loop (loaded by native.py).
+/* The FE step form's stress term at its integration points, as one loop.
  *
  * The same computation as ElasticTerms in fem/residual.py with
  * fem/material_points.py: the deformation gradients F0 (step start) and F1 (step
  * end) at Q points from the sparse gradient matrix G of the scalar basis
  * (CSR, 2Q rows: d/dx at the points, then d/dy), the discrete-gradient second
  * Piola-Kirchhoff stress averaged along C0 -> C1 by a Gauss rule, P = F_mid S,
- * and the residual G^T (weight P) added to out. Plain C, no Python API: it is
- * called through ctypes.
+ * and the residual G^T (weight P) added to out. Plain C, no Python API.
  */
 #include <math.h>
+
+#include "femp_core.h"
 
 /* grad[p] = (du_x/dx, du_x/dy, du_y/dx, du_y/dy) at point p; u = (u_x (nS), u_y (nS)). The d/dy row holds
  * the d/dx row's columns in the same order (ElasticTerms checks it): each u entry is read once for both
@@ -411,73 +412,6 @@ void femp_stress_tangent(int q, const int *indptr, const int *indices, const dou
     }
 }
 
-/* One Newton iteration of the energy-momentum step form in a single call (fem/iteration.py fills the
- * struct): the residual's linear terms and stress term added to res (which holds the wall contact term, or is
- * overwritten), the correction of the held factors turned by the angle whose cosine and sine are c and s
- * (turn 0: not turned), and w -= the correction. The same operations in the same order as the separate
- * kernels above, so the results are the same bit for bit; what it saves is the Python between them. */
-struct femp_csr {
-    int n;
-    const int *indptr, *indices;
-    const double *data;
-};
-struct femp_body {
-    int q;
-    const int *indptr, *indices;
-    const double *data;
-    const double *F0, *C0, *weights;
-    double lame_lambda, mu;
-    int n_gauss;
-    const double *gauss_s, *gauss_w;
-};
-struct femp_factors {
-    int n;
-    const int *free_dofs;
-    const double *scale;
-    const int *perm_r, *perm_c, *Lp, *Li;
-    const double *Lx;
-    const int *Up, *Ui;
-    const double *Ux, *u_diag;
-    const int *sn;
-    const double *Ur;
-    double *work;
-};
-struct femp_rigid_contact; /* fem/rigid_contact_kernel.c */
-int femp_rigid_contact(const struct femp_rigid_contact *c, const double *u, int size, double *res);
-struct femp_iteration {
-    int size, n_disp, nS, n_bodies;
-    struct femp_body bodies[2];
-    struct femp_csr mass, hinge, torque;
-    const double *constant, *wv;
-    double inertia, half_torque;
-    struct femp_factors lu;
-    int nturn;
-    const int *ix, *iy;
-    double *res, *moved, *turned, *corr, *w;
-    const struct femp_rigid_contact *contact; /* NULL: none compiled */
-    double *f_last, *g_last; /* the last iteration's -corr (n_disp) and updated w (size): secant_step */
-    int has_last;            /* 0: no iteration yet with this Jacobian (FusedIteration.prepare) */
-    int depth, kept;         /* differences the step combines at most (ANDERSON_MOST), and holds now */
-    double *df, *dg;         /* the kept differences of f (n_disp each) and of g (size each), newest first */
-    double *gram;            /* their inner products, ANDERSON_MOST x ANDERSON_MOST */
-    struct femp_low_rank *low_rank; /* the held Jacobian's update for the rigid wall's contact (NULL: none) */
-};
-
-/* The held Jacobian A (assembled without the contact) updated for the rigid wall's contact term, whose
- * Jacobian is V K V^T on the m unknowns dofs of the contact set's elements (fem/contact_update.py): the
- * correction z = A^-1 r becomes z - G M V^T z with G = A^-1 V and M = (I + K S)^-1 K, S = V^T G, all in
- * the held Jacobian's frame. K is made at each iterate from the term's stiffness at the listed points,
- * c_j g_j g_j^T in their positions X_j + E_j u, whose rows of E on dofs are ex and ey. */
-struct femp_low_rank {
-    int m, n_points;
-    const int *dofs;
-    const double *G, *S, *ex, *ey; /* G: m rows of size; S: m x m; ex, ey: n_points x m (all by rows) */
-    double *c, *gx, *gy;           /* n_points each */
-    double *K, *B, *y;             /* m x m, m x m, 2 m */
-};
-int femp_rigid_contact_stiffness(const struct femp_rigid_contact *c, const double *u, int n, double *cj, double *gx,
-                                 double *gy);
-
 /* The iterations with a held Jacobian are a fixed-point map g(x) = x - corr(x) that contracts linearly;
  * the Anderson step combines the last iterates: x+ = g - sum_j gamma_j dg_j, with dg_j the differences of
  * the last `kept` g and gamma minimising |f - sum_j gamma_j df_j| over the displacements, f = -corr and df_j
@@ -669,6 +603,11 @@ void femp_turned_solve(int nturn, const int *ix, const int *iy, double c, double
 
 /* res_holds_contact: 1 if res holds the contact term, 0 if there is none, 2 to make the compiled rigid-wall
  * term here (fem/rigid_contact.py) */
+/* One Newton iteration of the energy-momentum step form in a single call (fem/iteration.py fills the
+ * struct): the residual's linear terms and stress term added to res (which holds the wall contact term, or is
+ * overwritten), the correction of the held factors turned by the angle whose cosine and sine are c and s
+ * (turn 0: not turned), and w -= the correction. The same operations in the same order as the separate
+ * kernels above, so the results are the same bit for bit; what it saves is the Python between them. */
 double femp_iterate(struct femp_iteration *it, int res_holds_contact, int turn, double c, double s) {
     int size = it->size;
     double *res = it->res;

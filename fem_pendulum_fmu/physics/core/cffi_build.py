@@ -1,0 +1,46 @@
+"""The build of the compiled core: run by setup.py (cffi_modules) when the package is built, never at run time.
+
+cffi's API mode compiles the C sources of this folder, with femp_core.h as the one declaration of what
+Python may call, into the extension module fem_pendulum_fmu.physics.core._femp_core. The header is both
+the C sources' include and cffi's declarations (its preprocessor lines left out), so the two cannot
+disagree. Floating-point contraction is off: every multiply and add is rounded as written, the same
+bits on every build of the same compiler.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+from cffi import FFI
+
+HERE = Path(__file__).resolve().parent
+SOURCES = ("fem_elastic.c", "fem_rigid_contact.c", "fem_start_iterate.c", "fem_mass_moments.c", "reduced_step.c")
+HEADER = HERE / "femp_core.h"
+
+
+def declarations(header: str) -> str:
+    """The header without its preprocessor lines, which cffi's parser does not take."""
+    return "\n".join(line for line in header.splitlines() if not line.lstrip().startswith("#"))
+
+
+def compile_args() -> list[str]:
+    if sys.platform == "win32" and "GCC" not in sys.version:
+        return ["/O2", "/fp:precise"]
+    return ["-O3", "-ffp-contract=off", "-std=c99"]
+
+
+ffibuilder = FFI()
+ffibuilder.cdef(declarations(HEADER.read_text()))
+ffibuilder.set_source(
+    "fem_pendulum_fmu.physics.core._femp_core",
+    '#include "femp_core.h"',
+    sources=[os.path.relpath(HERE / name) for name in SOURCES],  # setuptools takes the sources' paths relative
+    include_dirs=[os.path.relpath(HERE)],
+    extra_compile_args=compile_args(),
+    libraries=[] if sys.platform == "win32" else ["m"],
+)
+
+if __name__ == "__main__":
+    ffibuilder.compile(verbose=True)
