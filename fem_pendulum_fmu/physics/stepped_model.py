@@ -10,7 +10,7 @@ from typing import Generic
 import numpy as np
 
 from .protocol import Outputs, StopAt, check_advance_args
-from .stepping import StepControl, X, advance
+from .stepping import AdvanceResult, StepControl, X, advance
 from .torque import Torque, TorqueProfile
 
 
@@ -48,12 +48,16 @@ class SteppedModel(Generic[X]):
     def advance(self, t_end: float, torque: Torque, stop: StopAt | None = None) -> Outputs:
         check_advance_args(self.time, t_end, torque)
         torque = torque if isinstance(torque, TorqueProfile) else float(torque)
-        result = advance(self, self._x, self.time, float(t_end), torque, self.control, stop)
+        result = self._stepped(float(t_end), torque, stop)
         self._x = result.state
         self.time = result.end_time(float(t_end))
         self._outputs = self._compute_outputs(self._x, self.time, result.substeps)
         self.last_min_gap = result.finish(self._outputs)
         return self._outputs
+
+    def _stepped(self, t_end: float, torque: Torque, stop: StopAt | None) -> AdvanceResult[X]:
+        """The advance's steps from the current state (stepping.advance; a model may run them elsewhere)."""
+        return advance(self, self._x, self.time, t_end, torque, self.control, stop)
 
     def outputs(self) -> Outputs:
         return self._outputs

@@ -242,9 +242,7 @@ def advance(
         if x_new is None:
             dt_cap = dt / 2.0
             if dt_cap < control.min_step:
-                raise StepFailed(
-                    f"the nonlinear solve failed down to the smallest step {control.min_step:g} s at t = {t:.9g} s"
-                )
+                raise smallest_step_failed(control.min_step, t)
             continue
         contact.add(model, x, x_new, dt, gap)
         last_contact_dt = dt if gap < 0.0 and not held else 0.0
@@ -348,6 +346,11 @@ def _even_step(longest: float, remaining: float, last: float) -> float:
         longest = last
     count = math.ceil(remaining / longest * (1.0 - 1e-12))
     return remaining / count if count > 1 else remaining
+
+
+def smallest_step_failed(min_step: float, t: float) -> StepFailed:
+    """The failure of an advance whose step failed at every size down to min_step, at t."""
+    return StepFailed(f"the nonlinear solve failed down to the smallest step {min_step:g} s at t = {t:.9g} s")
 
 
 def check_substeps(control: StepControl, substeps: int, t: float, t_end: float) -> None:

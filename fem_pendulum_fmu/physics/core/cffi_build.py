@@ -16,7 +16,15 @@ from pathlib import Path
 from cffi import FFI
 
 HERE = Path(__file__).resolve().parent
-SOURCES = ("fem_elastic.c", "fem_rigid_contact.c", "fem_start_iterate.c", "fem_mass_moments.c", "reduced_step.c")
+SOURCES = (
+    "fem_elastic.c",
+    "fem_rigid_contact.c",
+    "fem_start_iterate.c",
+    "fem_mass_moments.c",
+    "reduced_step.c",
+    "stepping.c",
+    "reduced_advance.c",
+)
 HEADER = HERE / "femp_core.h"
 
 
@@ -33,6 +41,8 @@ def compile_args() -> list[str]:
 
 ffibuilder = FFI()
 ffibuilder.cdef(declarations(HEADER.read_text()))
+# the one callback into Python: an advance's `stop` (physics/protocol.py, StopAt), as a femp_stop_fn
+ffibuilder.cdef('extern "Python" int femp_python_stop(void *, double, double, double);')
 ffibuilder.set_source(
     "fem_pendulum_fmu.physics.core._femp_core",
     '#include "femp_core.h"',

@@ -181,4 +181,34 @@ void femp_reduced_contact(const struct femp_reduced *R, const double *z, double 
 int femp_reduced_step(const struct femp_reduced *R, const double *z0, const double *p0, double V0, double dt,
                       double torque, double *z1, double *p1, double *out);
 
+/* ---- the step control every fidelity's advance runs on (stepping.c; physics/stepping.py states its rules) ---- */
+
+struct femp_step_control {
+    double max_step, tolerance, min_step;
+    int max_onset_iterations, max_substeps, timing_rule, even_contact_steps;
+};
+
+/* T(s) = value + rate s + curvature s^2 / 2, s the time since the advance's start */
+struct femp_torque {
+    double value, rate, curvature;
+};
+
+enum { FEMP_ADVANCE_DONE = 0, FEMP_ADVANCE_STOPPED = 1, FEMP_ADVANCE_FAILED = -1, FEMP_ADVANCE_TOO_MANY_STEPS = -2 };
+
+/* One advance: what it starts from (the contact's hold and force, the angle and the load's terms for the
+ * held-contact test), and what it did (status one of FEMP_ADVANCE_*). */
+struct femp_advance {
+    double t_start, t_end, hold, force_now, theta, gravity_moment, head_centre_depth;
+    int status, substeps, rejected;
+    double t_reached, min_gap, force_max, impulse_x, impulse_y;
+};
+
+/* asked after every internal step but the last: nonzero ends the advance there */
+typedef int (*femp_stop_fn)(void *context, double t, double gap_before, double gap_after);
+
+/* The reduced model's advance (reduced_advance.c): x = (z, p, torque work), 2 (m + 1) + 1 entries. */
+int femp_reduced_advance(const struct femp_reduced *R, const struct femp_step_control *control,
+                         const struct femp_torque *torque, double *x, struct femp_advance *a, femp_stop_fn stop,
+                         void *context);
+
 #endif

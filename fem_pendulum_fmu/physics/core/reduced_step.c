@@ -14,23 +14,16 @@
 
 #include "femp_core.h"
 
-typedef struct femp_reduced Reduced;
+#include "reduced_internal.h"
 
-typedef struct {
-    int active; /* some head point inside the block */
-    double energy, fx, fy;
-    double *grad; /* (n) */
-    double *hess; /* (n, n) */
-} Contact;
-
-static double dot(int k, const double *x, const double *y) {
+double femp_r_dot(int k, const double *x, const double *y) {
     double s = 0.0;
     for (int i = 0; i < k; ++i) s += x[i] * y[i];
     return s;
 }
 
 /* out_j = sum_i q_i gyro_ij  (c = q @ gyro) */
-static void left_gyro(const Reduced *R, const double *q, double *out) {
+void femp_r_left_gyro(const Reduced *R, const double *q, double *out) {
     int m = R->m;
     for (int j = 0; j < m; ++j) out[j] = 0.0;
     for (int i = 0; i < m; ++i)
@@ -40,11 +33,11 @@ static void left_gyro(const Reduced *R, const double *q, double *out) {
 /* out_i = sum_j gyro_ij v_j  (gyro @ v) */
 static void right_gyro(const Reduced *R, const double *v, double *out) {
     int m = R->m;
-    for (int i = 0; i < m; ++i) out[i] = dot(m, R->gyro + i * m, v);
+    for (int i = 0; i < m; ++i) out[i] = femp_r_dot(m, R->gyro + i * m, v);
 }
 
 /* 2 a.q + q.q, the moment of inertia's growth */
-static double inertia_growth(const Reduced *R, const double *q) {
+double femp_r_inertia_growth(const Reduced *R, const double *q) {
     double s = 0.0;
     for (int i = 0; i < R->m; ++i) s += (2.0 * R->a[i] + q[i]) * q[i];
     return s;
@@ -52,11 +45,11 @@ static double inertia_growth(const Reduced *R, const double *q) {
 
 /* ------------------------------------------------------------------ potentials */
 static void first_moment(const Reduced *R, const double *q, double S[2]) {
-    S[0] = R->first_moment[0] + dot(R->m, R->moment_modes, q);
-    S[1] = R->first_moment[1] + dot(R->m, R->moment_modes + R->m, q);
+    S[0] = R->first_moment[0] + femp_r_dot(R->m, R->moment_modes, q);
+    S[1] = R->first_moment[1] + femp_r_dot(R->m, R->moment_modes + R->m, q);
 }
 
-static double gravity_energy(const Reduced *R, const double *z) {
+double femp_r_gravity_energy(const Reduced *R, const double *z) {
     double S[2];
     first_moment(R, z + 1, S);
     return R->g * (sin(z[0]) * S[0] + cos(z[0]) * S[1]);
@@ -166,13 +159,13 @@ void femp_reduced_strain_hessian(const Reduced *R, const double *q, double *hess
 }
 
 /* ------------------------------------------------------------------ the wall */
-static double box_distance(const Reduced *R, double px, double py) {
+double femp_r_box_distance(const Reduced *R, double px, double py) {
     double hx = 0.5 * (R->x_max - R->x_min), hy = 0.5 * (R->y_max - R->y_min);
     double qx = fabs(px - 0.5 * (R->x_min + R->x_max)) - hx, qy = fabs(py - 0.5 * (R->y_min + R->y_max)) - hy;
     return hypot(fmax(qx, 0.0), fmax(qy, 0.0)) + fmin(fmax(qx, qy), 0.0);
 }
 
-static int circle_may_touch(const Reduced *R, double cx, double cy, double radius) {
+int femp_r_circle_may_touch(const Reduced *R, double cx, double cy, double radius) {
     double qx = fmin(fmax(cx, R->x_min), R->x_max), qy = fmin(fmax(cy, R->y_min), R->y_max);
     double r2 = radius * radius;
     if ((qx - cx) * (qx - cx) + (qy - cy) * (qy - cy) > r2) return 0;
@@ -180,25 +173,25 @@ static int circle_may_touch(const Reduced *R, double cx, double cy, double radiu
     return fx * fx + fy * fy >= r2;
 }
 
-static double abs_dot(int k, const double *x, const double *q) {
+double femp_r_abs_dot(int k, const double *x, const double *q) {
     double s = 0.0;
     for (int i = 0; i < k; ++i) s += x[i] * fabs(q[i]);
     return s;
 }
 
 /* world position of head point i at (c, s, q) */
-static void head_point(const Reduced *R, int i, double c, double s, const double *q, double *px, double *py) {
+void femp_r_head_point(const Reduced *R, int i, double c, double s, const double *q, double *px, double *py) {
     const double *phi = R->head_phi + (size_t)i * 2 * R->m;
-    double lx = R->head_X[2 * i] + dot(R->m, phi, q), ly = R->head_X[2 * i + 1] + dot(R->m, phi + R->m, q);
+    double lx = R->head_X[2 * i] + femp_r_dot(R->m, phi, q), ly = R->head_X[2 * i + 1] + femp_r_dot(R->m, phi + R->m, q);
     *px = lx * c - ly * s;
     *py = lx * s + ly * c;
 }
 
 /* signed distance of group k's centre to the block, and its reach (radius + largest modal displacement) */
-static double group_gap(const Reduced *R, int k, double c, double s, const double *q, double *reach) {
+double femp_r_group_gap(const Reduced *R, int k, double c, double s, const double *q, double *reach) {
     double X = R->group_centre[2 * k], Y = R->group_centre[2 * k + 1];
-    *reach = R->group_radius[k] + abs_dot(R->m, R->group_peak + (size_t)k * R->m, q);
-    return box_distance(R, X * c - Y * s, X * s + Y * c);
+    *reach = R->group_radius[k] + femp_r_abs_dot(R->m, R->group_peak + (size_t)k * R->m, q);
+    return femp_r_box_distance(R, X * c - Y * s, X * s + Y * c);
 }
 
 /* The smallest signed distance of the head points to the block (the gap output). */
@@ -207,15 +200,15 @@ double femp_reduced_gap(const Reduced *R, const double *z) {
     const double *q = z + 1;
     double *gap = malloc(sizeof(double) * 2 * R->groups), *reach = gap + R->groups;
     for (int k = 0; k < R->groups; ++k) {
-        gap[k] = group_gap(R, k, c, s, q, &reach[k]);
+        gap[k] = femp_r_group_gap(R, k, c, s, q, &reach[k]);
         cutoff = fmin(cutoff, gap[k] + reach[k]);
     }
     for (int k = 0; k < R->groups; ++k) {
         if (!(gap[k] - reach[k] <= cutoff)) continue;
         for (int i = R->group_start[k]; i < R->group_start[k + 1]; ++i) {
             double px, py;
-            head_point(R, i, c, s, q, &px, &py);
-            best = fmin(best, box_distance(R, px, py));
+            femp_r_head_point(R, i, c, s, q, &px, &py);
+            best = fmin(best, femp_r_box_distance(R, px, py));
         }
     }
     free(gap);
@@ -250,7 +243,7 @@ static void add_point(const Reduced *R, int i, double px, double py, double c, d
 }
 
 /* The wall contact at z: energy and force, and with_derivatives its gradient and Hessian. */
-static void contact_at(const Reduced *R, const double *z, int with_derivatives, Contact *C, double *row) {
+void femp_r_contact_at(const Reduced *R, const double *z, int with_derivatives, Contact *C, double *row) {
     int n = R->m + 1;
     C->active = 0;
     C->energy = C->fx = C->fy = 0.0;
@@ -262,13 +255,13 @@ static void contact_at(const Reduced *R, const double *z, int with_derivatives, 
     const double *q = z + 1;
     double c = cos(z[0]), s = sin(z[0]);
     double cx = c * R->head_cx - s * R->head_cy, cy = s * R->head_cx + c * R->head_cy;
-    if (!circle_may_touch(R, cx, cy, R->head_radius + abs_dot(R->m, R->phi_peak, q))) return;
+    if (!femp_r_circle_may_touch(R, cx, cy, R->head_radius + femp_r_abs_dot(R->m, R->phi_peak, q))) return;
     for (int k = 0; k < R->groups; ++k) {
-        double reach, gap = group_gap(R, k, c, s, q, &reach);
+        double reach, gap = femp_r_group_gap(R, k, c, s, q, &reach);
         if (!(gap - reach <= 0.0)) continue;
         for (int i = R->group_start[k]; i < R->group_start[k + 1]; ++i) {
             double px, py;
-            head_point(R, i, c, s, q, &px, &py);
+            femp_r_head_point(R, i, c, s, q, &px, &py);
             if (px < R->x_max && px > R->x_min && py < R->y_max && py > R->y_min)
                 add_point(R, i, px, py, c, s, with_derivatives, C, row);
         }
@@ -280,7 +273,7 @@ void femp_reduced_contact(const Reduced *R, const double *z, double *out) {
     int n = R->m + 1;
     double *row = malloc(sizeof(double) * n);
     Contact C = {0, 0.0, 0.0, 0.0, out + 4, out + 4 + n};
-    contact_at(R, z, 1, &C, row);
+    femp_r_contact_at(R, z, 1, &C, row);
     free(row);
     out[0] = C.active;
     out[1] = C.energy;
@@ -301,8 +294,8 @@ typedef struct { /* scratch of a step: n or m doubles each, and the contact term
 } Scratch;
 
 static double potential(const Reduced *R, const double *z, Scratch *w, double parts[3]) {
-    contact_at(R, z, 0, &w->contact, w->row);
-    parts[0] = gravity_energy(R, z);
+    femp_r_contact_at(R, z, 0, &w->contact, w->row);
+    parts[0] = femp_r_gravity_energy(R, z);
     parts[1] = w->contact.energy;
     parts[2] = femp_reduced_strain_energy(R, z + 1);
     return parts[0] + parts[1] + parts[2];
@@ -312,7 +305,7 @@ static double potential(const Reduced *R, const double *z, Scratch *w, double pa
 static void end_momentum(const Reduced *R, const Start *S, const double *b, const double *c1, double s1, double c0c1,
                          double c1c1, double *p1) {
     int m = R->m;
-    double b0 = b[0], r0 = b0 - dot(m, S->c0, b + 1), r1 = b0 - dot(m, c1, b + 1);
+    double b0 = b[0], r0 = b0 - femp_r_dot(m, S->c0, b + 1), r1 = b0 - femp_r_dot(m, c1, b + 1);
     double A = 2.0 * S->s0 + 1.0 + S->c0c0, B = 1.0 + c0c1, D = 2.0 * s1 + 1.0 + c1c1;
     double y0 = (r0 - r1 - (B - D) * b0) / (A - 2.0 * B + D), y1 = b0 - y0, y2 = r0 - A * y0 - B * y1;
     p1[0] = 2.0 * (b0 - y0 - y1 - y2) - S->p0[0];
@@ -327,13 +320,13 @@ static double energy_balance(const Reduced *R, const Start *S, const double *z1,
         w->dz[i] = z1[i] - S->z0[i];
         w->tmp[i] = w->dz[i] / dt;
     }
-    left_gyro(R, z1 + 1, w->c1);
-    double c1c1 = dot(m, w->c1, w->c1), s1 = R->inertia0 + inertia_growth(R, z1 + 1) - c1c1;
-    end_momentum(R, S, w->tmp, w->c1, s1, dot(m, S->c0, w->c1), c1c1, w->p1);
-    double pq = dot(m, w->p1 + 1, w->p1 + 1), u = w->p1[0] - dot(m, w->c1, w->p1 + 1);
+    femp_r_left_gyro(R, z1 + 1, w->c1);
+    double c1c1 = femp_r_dot(m, w->c1, w->c1), s1 = R->inertia0 + femp_r_inertia_growth(R, z1 + 1) - c1c1;
+    end_momentum(R, S, w->tmp, w->c1, s1, femp_r_dot(m, S->c0, w->c1), c1c1, w->p1);
+    double pq = femp_r_dot(m, w->p1 + 1, w->p1 + 1), u = w->p1[0] - femp_r_dot(m, w->c1, w->p1 + 1);
     double kinetic = 0.5 * (pq + u * u / s1) - 0.5 * S->t00;
     double V = potential(R, z1, w, V1);
-    return fabs(kinetic + V - S->V0 - dot(n, S->Q, w->dz));
+    return fabs(kinetic + V - S->V0 - femp_r_dot(n, S->Q, w->dz));
 }
 
 /* The discrete-gradient equations at z1 (NewtonStep.residual) into r; V1 is the potential at z1.
@@ -349,27 +342,27 @@ static void residual(const Reduced *R, const Start *S, const double *z1, double 
     }
     const double *q1 = z1 + 1, *qm = w->zm + 1, *dq = w->dz + 1;
     double dth = w->dz[0];
-    left_gyro(R, q1, w->c1);
+    femp_r_left_gyro(R, q1, w->c1);
     for (int j = 0; j < m; ++j) w->cm[j] = 0.5 * (S->c0[j] + w->c1[j]);
-    double c1c1 = dot(m, w->c1, w->c1), c0c1 = dot(m, S->c0, w->c1);
-    double s1 = R->inertia0 + inertia_growth(R, q1) - c1c1;
-    double mm = R->inertia0 + inertia_growth(R, qm);
+    double c1c1 = femp_r_dot(m, w->c1, w->c1), c0c1 = femp_r_dot(m, S->c0, w->c1);
+    double s1 = R->inertia0 + femp_r_inertia_growth(R, q1) - c1c1;
+    double mm = R->inertia0 + femp_r_inertia_growth(R, qm);
     double sm = mm - 0.25 * (S->c0c0 + 2.0 * c0c1 + c1c1);
     double *p1 = w->p1;
     end_momentum(R, S, w->tmp, w->c1, s1, c0c1, c1c1, p1);
     const double *p1q = p1 + 1;
-    double p10 = p1[0], c1p0 = dot(m, w->c1, p0q), c1p1 = dot(m, w->c1, p1q), c0p1 = dot(m, S->c0, p1q);
-    double p1p1 = dot(m, p1q, p1q);
+    double p10 = p1[0], c1p0 = femp_r_dot(m, w->c1, p0q), c1p1 = femp_r_dot(m, w->c1, p1q), c0p1 = femp_r_dot(m, S->c0, p1q);
+    double p1p1 = femp_r_dot(m, p1q, p1q);
     double va = (p0[0] - 0.5 * (S->c0p0 + c1p0)) / sm, vb = (p10 - 0.5 * (c0p1 + c1p1)) / sm, k2 = va * va + vb * vb;
     double *grad_T = w->tmp2; /* kinetic energy's q difference */
     for (int j = 0; j < m; ++j) w->tmp[j] = va * p0q[j] + vb * p1q[j] - k2 * w->cm[j];
     right_gyro(R, w->tmp, grad_T);
     for (int j = 0; j < m; ++j) grad_T[j] = -0.5 * (k2 * (R->a[j] + qm[j]) + grad_T[j]);
-    double dq2 = dot(m, dq, dq);
+    double dq2 = femp_r_dot(m, dq, dq);
     if (dq2 > 0.0) {
         double t0 = 0.25 * (S->t00 + p1p1 + (p10 - c0p1) * (p10 - c0p1) / S->s0);
         double t1 = 0.25 * (S->p0p0 + (p0[0] - c1p0) * (p0[0] - c1p0) / s1 + p1p1 + (p10 - c1p1) * (p10 - c1p1) / s1);
-        double k = (t1 - t0 - dot(m, grad_T, dq)) / dq2;
+        double k = (t1 - t0 - femp_r_dot(m, grad_T, dq)) / dq2;
         for (int j = 0; j < m; ++j) grad_T[j] += k * dq[j];
     }
     /* gravity + contact + strain at the midpoint, Gonzalez's correction in the mass metric M(zm) */
@@ -381,13 +374,13 @@ static void residual(const Reduced *R, const Start *S, const double *z1, double 
     femp_reduced_strain_gradient(R, qm, g_q);
     for (int j = 0; j < m; ++j) g_q[j] += (g * sn) * R->moment_modes[j] + (g * cs) * R->moment_modes[m + j];
     double g_th = g * (cs * Sm[0] - sn * Sm[1]);
-    contact_at(R, w->zm, 1, &w->contact, w->row);
+    femp_r_contact_at(R, w->zm, 1, &w->contact, w->row);
     if (w->contact.active) {
         g_th += w->contact.grad[0];
         for (int j = 0; j < m; ++j) g_q[j] += w->contact.grad[1 + j];
     }
-    double cm_dq = dot(m, w->cm, dq), W0 = mm * dth + cm_dq, denom = dth * W0 + cm_dq * dth + dq2;
-    double k = denom > 0.0 ? (V1 - S->V0 - g_th * dth - dot(m, g_q, dq)) / denom : 0.0;
+    double cm_dq = femp_r_dot(m, w->cm, dq), W0 = mm * dth + cm_dq, denom = dth * W0 + cm_dq * dth + dq2;
+    double k = denom > 0.0 ? (V1 - S->V0 - g_th * dth - femp_r_dot(m, g_q, dq)) / denom : 0.0;
     r[0] = p10 - p0[0] + dt * (g_th + k * W0 - S->Q[0]);
     for (int j = 0; j < m; ++j)
         r[1 + j] = p1q[j] - p0q[j] + dt * (g_q[j] + k * (dq[j] + dth * w->cm[j]) - S->Q[1 + j] + grad_T[j]);
@@ -405,7 +398,7 @@ static void jacobian(const Reduced *R, const double *K, double mm, double dt, Sc
     if (w->contact.active)
         for (int i = 0; i < n * n; ++i) jac[i] += half * w->contact.hess[i];
     double g = R->g, om = w->dz[0] / dt, sn = sin(w->zm[0]), cs = cos(w->zm[0]);
-    jac[0] += h * (mm - 1.0) - half * gravity_energy(R, w->zm);
+    jac[0] += h * (mm - 1.0) - half * femp_r_gravity_energy(R, w->zm);
     for (int j = 0; j < m; ++j) w->tmp[j] = w->dz[1 + j] / dt;
     right_gyro(R, w->tmp, w->tmp2);
     for (int j = 0; j < m; ++j) {
@@ -458,16 +451,16 @@ static int predict(const Reduced *R, const Start *S, double dt, Scratch *w, doub
     double h = 2.0 / (dt * dt), g = R->g, sn = sin(z0[0]), cs = cos(z0[0]);
     femp_reduced_strain_hessian(R, q0, w->K);
     double *v0 = w->p1, *rhs = w->delta, *border = w->cm, *force_q = w->tmp;
-    v0[0] = (S->p0[0] - dot(m, S->c0, S->p0 + 1)) / S->s0;
+    v0[0] = (S->p0[0] - femp_r_dot(m, S->c0, S->p0 + 1)) / S->s0;
     for (int j = 0; j < m; ++j) v0[1 + j] = S->p0[1 + j] - v0[0] * S->c0[j];
-    contact_at(R, z0, 1, &w->contact, w->row);
+    femp_r_contact_at(R, z0, 1, &w->contact, w->row);
     gravity_gradient(R, z0, w->zm);
     double om = v0[0];
     right_gyro(R, v0 + 1, w->tmp2);
     femp_reduced_strain_gradient(R, q0, force_q);
     for (int i = 0; i < n; ++i) rhs[i] = (2.0 / dt) * S->p0[i] + S->Q[i] - w->zm[i] - w->contact.grad[i];
     for (int j = 0; j < m; ++j) rhs[1 + j] += (om * om) * (R->a[j] + q0[j]) + om * w->tmp2[j] - force_q[j];
-    double corner = h * (S->s0 + S->c0c0) - 0.5 * gravity_energy(R, z0);
+    double corner = h * (S->s0 + S->c0c0) - 0.5 * femp_r_gravity_energy(R, z0);
     for (int j = 0; j < m; ++j)
         border[j] = h * S->c0[j] + (0.5 * g * cs) * R->moment_modes[j] - (0.5 * g * sn) * R->moment_modes[m + j];
     if (!w->contact.active && !R->neo) { /* diagonal on the modes plus the border: eliminate theta */
@@ -519,12 +512,12 @@ int femp_reduced_step(const Reduced *R, const double *z0, const double *p0, doub
                                                                  r + 11 * n + n * n + m * m}};
     Start S = {z0, p0, c0, S0, Q, 0.0, 0.0, 0.0, 0.0, 0.0, V0};
     const double *q0 = z0 + 1, *p0q = p0 + 1;
-    left_gyro(R, q0, c0);
-    double m00 = R->inertia0 + 2.0 * dot(m, R->a, q0) + dot(m, q0, q0);
-    S.s0 = m00 - dot(m, c0, c0);
+    femp_r_left_gyro(R, q0, c0);
+    double m00 = R->inertia0 + 2.0 * femp_r_dot(m, R->a, q0) + femp_r_dot(m, q0, q0);
+    S.s0 = m00 - femp_r_dot(m, c0, c0);
     S.c0c0 = m00 - S.s0;
-    S.c0p0 = dot(m, c0, p0q);
-    S.p0p0 = dot(m, p0q, p0q);
+    S.c0p0 = femp_r_dot(m, c0, p0q);
+    S.p0p0 = femp_r_dot(m, p0q, p0q);
     S.t00 = S.p0p0 + (p0[0] - S.c0p0) * (p0[0] - S.c0p0) / S.s0;
     first_moment(R, q0, S0);
     for (int i = 0; i < n; ++i) Q[i] = torque * R->q_unit[i];
@@ -534,7 +527,7 @@ int femp_reduced_step(const Reduced *R, const double *z0, const double *p0, doub
         double V1 = potential(R, z1, &w, parts);
         for (int it = 0; it < R->max_it && !ok; ++it) {
             residual(R, &S, z1, V1, dt, &w, r, &mm);
-            if (!isfinite(dot(n, r, r))) break;
+            if (!isfinite(femp_r_dot(n, r, r))) break;
             jacobian(R, w.K, mm, dt, &w);
             if (!solve(n, w.jac, r)) break;
             for (int i = 0; i < n; ++i) z1[i] -= r[i];
@@ -548,7 +541,7 @@ int femp_reduced_step(const Reduced *R, const double *z0, const double *p0, doub
     }
     if (ok) {
         memcpy(p1, w.p1, sizeof(double) * n);
-        out[0] = dot(n, Q, w.dz);
+        out[0] = femp_r_dot(n, Q, w.dz);
         out[1] = parts[0];
         out[2] = parts[1];
         out[3] = parts[2];

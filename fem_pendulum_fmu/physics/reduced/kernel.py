@@ -54,6 +54,10 @@ class ReducedKernel:
         work, gravity, contact, strain = out[2 * n :].tolist()
         return out[:n].copy(), out[n : 2 * n].copy(), work, (gravity, contact, strain)
 
+    def run_advance(self, x: Any, control: Any, torque: Any, advance: Any, stop: Any, context: Any) -> int:
+        """femp_reduced_advance on this model's data (physics/compiled_advance.py makes the arguments)."""
+        return int(lib.femp_reduced_advance(self._ref, control, torque, x, advance, stop, context))
+
     def gap(self, z: np.ndarray) -> float:
         return float(lib.femp_reduced_gap(self._ref, pointer(z)))
 
