@@ -1,4 +1,5 @@
-"""The rigid model's scalar solves and contact shortcuts (rigid/solve.py, rigid/model.py, rigid/arc_contact.py).
+"""The rigid model's scalar solves and contact shortcuts in Python (rigid/solve.py, rigid/model.py,
+rigid/arc_contact.py), the compiled core's reference (tests/test_rigid_core.py holds the core to them).
 
 A free-flight step takes one Newton update, accepted by an a-priori bound on the next one; a contact
 step's Newton stops once the next update, as quadratic convergence predicts it, would pass the
@@ -65,17 +66,6 @@ def test_free_flight_single_update_is_the_converged_step():
                     allowance = max(1e-15 * abs(ref) + 1e-20, rigid_solve.ENERGY_ROUNDOFF * scale / (c * abs(ref)))
                     worst = max(worst, abs(u - ref) / allowance)
     assert worst <= 1.0
-
-
-def test_free_flight_advance_evaluates_gravity_once(monkeypatch):
-    model = rigid()
-    calls = []
-    original = rigid_solve._gravity_quotient
-    monkeypatch.setattr(rigid_solve, "_gravity_quotient", lambda *a: calls.append(a) or original(*a))
-    for k in range(1, 101):
-        out = model.advance(k * 1e-3, 0.0)
-        assert out.substeps == 1 and out.gap > 0.0
-    assert len(calls) == 100
 
 
 def contact_run(model):

@@ -62,13 +62,13 @@ def compiled_advance(
     stop: StopAt | None = None,
 ) -> AdvanceResult[np.ndarray]:
     """Advance the state x (a copy is stepped) from t to t_end by `run`; `start` the outputs at t (the
-    contact's hold and force, the angle), `load` (m g d, the head centre's depth) for the held-contact
+    contact's hold and force, the angle, the gap), `load` (m g d, the head centre's depth) for the held-contact
     test. Raises StepFailed as stepping.advance does, the state then unchanged."""
     profile = torque if isinstance(torque, TorqueProfile) else TorqueProfile(float(torque))
     T = ffi.new("struct femp_torque *", (profile.value, profile.rate, profile.curvature))
     a = ffi.new("struct femp_advance *")
     a.t_start, a.t_end, a.hold, a.force_now = t, t_end, start.contact_hold, start.contact_force
-    a.theta, (a.gravity_moment, a.head_centre_depth) = start.theta, load
+    a.theta, (a.gravity_moment, a.head_centre_depth), a.gap_start = start.theta, load, start.gap
     stepped = np.array(x, dtype=np.float64)
     box = None if stop is None else _Stop(stop)
     handle = ffi.NULL if box is None else ffi.new_handle(box)

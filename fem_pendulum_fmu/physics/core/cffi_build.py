@@ -24,6 +24,8 @@ SOURCES = (
     "reduced_step.c",
     "stepping.c",
     "reduced_advance.c",
+    "rigid_model.c",
+    "rigid_advance.c",
 )
 HEADER = HERE / "femp_core.h"
 

@@ -198,13 +198,37 @@ enum { FEMP_ADVANCE_DONE = 0, FEMP_ADVANCE_STOPPED = 1, FEMP_ADVANCE_FAILED = -1
 /* One advance: what it starts from (the contact's hold and force, the angle and the load's terms for the
  * held-contact test), and what it did (status one of FEMP_ADVANCE_*). */
 struct femp_advance {
-    double t_start, t_end, hold, force_now, theta, gravity_moment, head_centre_depth;
+    double t_start, t_end, hold, force_now, theta, gravity_moment, head_centre_depth, gap_start;
     int status, substeps, rejected;
     double t_reached, min_gap, force_max, impulse_x, impulse_y;
 };
 
 /* asked after every internal step but the last: nonzero ends the advance there */
 typedef int (*femp_stop_fn)(void *context, double t, double gap_before, double gap_after);
+
+/* ---- the rigid fidelity (rigid_model.c, rigid_advance.c; physics/rigid/model.py fills the struct) ---- */
+
+struct femp_rigid {
+    double inertia, mgd, hk;            /* about the pivot; m g d; thickness times the penalty stiffness */
+    double depth, radius, reach;        /* the head centre's depth, the head's radius, depth + radius */
+    double arc_offset, arc_length;      /* the head's outer arc (without the rod joint), from its centre */
+    double flat_law;                    /* C of E = C delta^2.5, a circle pressed into a flat face */
+    int contact_on;
+    double x_min, x_max, y_min, y_max;
+    const double *gl_x, *gl_w;          /* 8 Gauss-Legendre points and weights on [-1, 1] */
+    int series_terms;                   /* the segment series' terms (10) */
+    const double *s_series, *c_series;  /* their coefficients, lowest first */
+    const double *phi_limits;           /* the largest phi served by the first n + 1 terms */
+};
+
+/* out = (energy, fx, fy, dE/dtheta, d2E/dtheta2) of the contact at theta (zeros with contact off) */
+void femp_rigid_penalty(const struct femp_rigid *R, double theta, double *out);
+/* out = (gap, d gap / d theta) of the head's arc at theta: the clearance, or minus the deepest depth */
+void femp_rigid_gap(const struct femp_rigid *R, double theta, double *out);
+/* The rigid model's advance: x = (theta, omega, torque work); a->gap_start the gap at its start. */
+int femp_rigid_advance(const struct femp_rigid *R, const struct femp_step_control *control,
+                       const struct femp_torque *torque, double *x, struct femp_advance *a, femp_stop_fn stop,
+                       void *context);
 
 /* The reduced model's advance (reduced_advance.c): x = (z, p, torque work), 2 (m + 1) + 1 entries. */
 int femp_reduced_advance(const struct femp_reduced *R, const struct femp_step_control *control,

@@ -3,7 +3,8 @@
 Mass, centre of mass and moment of inertia come from mass_properties.py, integrated over the very mesh
 geometry the FE model uses (geometry.make_mesh, fine and highly curved), so
 the two fidelities describe the same body. Contact is the penalty law of
-contact.py on the head's outer arc, integrated exactly by rigid/arc_contact.py.
+contact.py on the head's outer arc, integrated exactly (core/rigid_model.c; in
+Python in rigid/arc_contact.py, the core's test reference).
 
 Time integration is the one-DOF discrete gradient (energy-consistent
 midpoint) rule, with q = theta, V = gravity + contact energy:
@@ -13,9 +14,12 @@ midpoint) rule, with q = theta, V = gravity + contact energy:
 
 so that kinetic + V changes by exactly T (q1 - q0) per step: impacts neither
 gain nor lose energy whatever the step, and the rebound angle is the release
-angle. The step's scalar equation and its Newton solves are in rigid/solve.py,
-the state in rigid/state.py; step sizes (contact onset, ~30 steps per contact)
-come from stepping.py.
+angle. The whole advance runs in the compiled core (core/rigid_advance.c): a
+single free-flight step where the head provably stays off the block, else the
+shared step control (core/stepping.c, whose rules stepping.py states) over the
+step's scalar equation and its Newton solves. rigid/solve.py and the Steppable
+methods here are the same in Python, stepped by stepping.py: the core's test
+reference. The state is in rigid/state.py.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..compiled_advance import compiled_advance, control_struct
 from ..contact_time import effective_mass
 from ..mass_properties import gravity_moment, mass_properties
 from ..output_rates import flow_derivatives, flow_step
@@ -34,14 +39,14 @@ from ..protocol import (
     OutputDerivatives,
     Outputs,
     StopAt,
-    check_advance_args,
     restore_advance_summary,
 )
 from ..scene import Scene, refuse_deformable_wall, validate
 from ..stepped_model import SteppedModel
-from ..stepping import StepControl, decayed_hold, finish_advance
+from ..stepping import AdvanceResult, StepControl
 from ..torque import Torque, TorqueProfile
 from . import arc_contact as rigid_contact
+from .kernel import RigidCore
 from .solve import Contact, StepSolver
 from .state import FIDELITY, RigidState
 
@@ -51,7 +56,6 @@ if TYPE_CHECKING:
 APPROACH_SPEED_FLOOR = 1e-3  # m/s: a head at rest near the block is assumed to approach at least this fast
 _SPEED_FLOOR2 = APPROACH_SPEED_FLOOR**2
 NEAR_FRACTION = 1.0  # contact scales are reported while the gap is below this many head radii
-FREE_MARGIN = 1e-9  # m of clearance a step must keep, beyond its sweep, to skip the contact law
 NO_CONTACT = rigid_contact.Penalty(0.0, 0.0, 0.0, 0.0, 0.0)
 TWO_PI = 2.0 * math.pi
 # new_state(RigidState, (theta, omega, work)): RigidState(...) at about half its cost (NamedTuple's __new__ is
@@ -99,8 +103,25 @@ class RigidModel(SteppedModel[RigidState]):
         self._flat_law = 8.0 / 15.0 * self._hk * math.sqrt(2.0 * self._radius)
         self.control = StepControl.for_scene(scene)
         self._memo: dict[float, Contact] = {}  # pure functions of the angle, so caching keeps runs deterministic
-        self._gap_memo: dict[float, tuple[float, float]] = {}
         self.solver = StepSolver(self.inertia, self._mgd, self._contact)
+        self._core = RigidCore(
+            inertia=self.inertia,
+            mgd=self._mgd,
+            hk=self._hk,
+            depth=self._depth,
+            radius=self._radius,
+            reach=self._reach,
+            arc_offset=self._arc_offset,
+            arc_length=self._arc_length,
+            flat_law=self._flat_law,
+            contact_on=int(self.contact_on),
+            x_min=self.block.x_min,
+            x_max=self.block.x_max,
+            y_min=self.block.y_min,
+            y_max=self.block.y_max,
+        )
+        self._core_control = control_struct(self.control)
+        self._load = (self._mgd, self._depth)  # the held-contact test's load: m g d and the head centre's depth
         self._sampler: VertexSampler | None = None  # the mesh's vertices, for fields()
         self.time = 0.0
         self._x = self.state(scene.theta0, scene.omega0)
@@ -140,21 +161,19 @@ class RigidModel(SteppedModel[RigidState]):
         return result
 
     def contact_energy(self, theta: float) -> rigid_contact.Penalty:
-        """Contact energy, force and its theta-derivatives at angle theta (zeros without a wall)."""
+        """Contact energy, force and its theta-derivatives at angle theta (zeros without a wall), by the core."""
         if not self.contact_on:
             return NO_CONTACT
-        return self._contact(float(theta))[1]
+        return self._core.penalty(float(theta))
 
     def geometric_gap(self, theta: float) -> tuple[float, float]:
-        """(signed gap, d gap / d theta) between the head's arc and the block."""
-        hit = self._gap_memo.get(theta)
-        if hit is None:
-            pieces = list(self._contact(theta)[0]) if self.contact_on else None
-            hit = rigid_contact.signed_gap(self.arc(theta), self.block, pieces)
-            if len(self._gap_memo) > 64:
-                self._gap_memo.clear()
-            self._gap_memo[theta] = hit
-        return hit
+        """(signed gap, d gap / d theta) between the head's arc and the block, by the core."""
+        return self._core.gap(float(theta))
+
+    def python_gap(self, theta: float) -> tuple[float, float]:
+        """geometric_gap by rigid/arc_contact.py, the core's reference."""
+        pieces = list(self._contact(theta)[0]) if self.contact_on else None
+        return rigid_contact.signed_gap(self.arc(theta), self.block, pieces)
 
     # ------------------------------------------------------------- stepping
     def step(self, x: RigidState, dt: float, torque: float) -> RigidState | None:
@@ -167,7 +186,7 @@ class RigidModel(SteppedModel[RigidState]):
 
     def contact_force(self, x: RigidState) -> float:
         """Magnitude of the wall's force on the head at state x (N)."""
-        pen = self.contact_energy(x[0])
+        pen = self._contact(float(x[0]))[1] if self.contact_on else NO_CONTACT
         return math.hypot(pen.fx, pen.fy)
 
     def contact_impulse(self, x0: RigidState, x1: RigidState, dt: float) -> np.ndarray:
@@ -179,7 +198,7 @@ class RigidModel(SteppedModel[RigidState]):
         if not self.contact_on:
             return np.zeros(2)
         q0, q1 = x0[0], x1[0]
-        qc, _ = self.solver.contact_quotient(q0, q1 - q0, self.contact_energy(q0).energy)
+        qc, _ = self.solver.contact_quotient(q0, q1 - q0, self._contact(q0)[1].energy)
         for q in (0.5 * (q0 + q1), q1, q0):
             fx, fy, moment = self._force_line(q)
             if moment != 0.0:
@@ -203,74 +222,29 @@ class RigidModel(SteppedModel[RigidState]):
         return pen.fx, pen.fy, pen.d_energy
 
     # ------------------------------------------------------------- advance
-    def advance(self, t_end: float, torque: Torque, stop: StopAt | None = None) -> Outputs:
-        """The protocol's advance: one free-flight step taken directly when it provably stays off the
-        block (`_free_step`, with the profile's mean torque over it; `stop` is told of it and cannot end
-        it earlier), else the shared stepper (stepping.py)."""
-        t_end = float(t_end)
-        torque = torque if isinstance(torque, TorqueProfile) else float(torque)
-        check_advance_args(self.time, t_end, torque)
-        mean = torque if isinstance(torque, float) else torque.mean(0.0, t_end - self.time)
-        gap0 = self._outputs.gap
-        out = self._free_step(t_end, mean)
-        if out is None:
-            return SteppedModel.advance(self, t_end, torque, stop)
-        if stop is not None:
-            stop(t_end, gap0, out.gap)
-        return out
-
-    def _free_step(self, t_end: float, torque: float) -> Outputs | None:
-        """The advance to t_end as the single step the stepper would take in free flight, when no
-        arc point can reach the block during it; None otherwise (the stepper takes the advance).
-
-        Every arc point lies within `_reach` of the pivot, so a rotation by u moves it at most
-        _reach |u| and the gap cannot close by more: with gap0 > _reach |u| the contact energy is
-        zero over the whole step, and the step without the contact law is the discrete-gradient
-        step itself. Its outputs are those of `_compute_outputs`, without the contact evaluations."""
-        dt = t_end - self.time
-        last = self._outputs
-        gap0, contact_on = last.gap, self.contact_on
-        if dt > self.control.max_step or (contact_on and not gap0 > FREE_MARGIN):
-            return None
-        q0, w0, work = self._x
-        solver = self.solver
-        u = solver.solve_free(q0, w0, dt, torque)
-        if u is None:
-            u = solver.solve(q0, w0, dt, torque, False)
-        if u is None or (contact_on and not gap0 > self._reach * abs(u) + FREE_MARGIN):
-            return None
-        q1, w1, work1 = q0 + u, 2.0 * u / dt - w0, work + torque * u
-        D, cos_q1 = self._depth, math.cos(q1)
-        gap1 = rigid_contact.clear_gap(
-            D * math.sin(q1), -D * cos_q1, self._radius, q1 + self._arc_offset, self._arc_length, self.block
+    def _stepped(self, t_end: float, torque: Torque, stop: StopAt | None) -> AdvanceResult[RigidState]:
+        """The advance in the compiled core (core/rigid_advance.c): one free-flight step where the head
+        provably stays off the block during it, else the shared step control."""
+        run = compiled_advance(
+            self._core.run_advance,
+            np.array(self._x),
+            self._core_control,
+            self.time,
+            t_end,
+            torque,
+            self._outputs,
+            self._load,
+            stop,
         )
-        if gap1 is None:  # the arc's end is nearest: signed_gap's exact outside distance
-            gap1 = rigid_contact.signed_gap(self.arc(q1), self.block)[0]
-        out = self._free_outputs(q1, w1, work1, cos_q1, t_end, gap1)
-        # as the stepper reports it: the smallest gap at the step's ends (only the end's without a wall)
-        min_gap = gap0 if contact_on else math.inf
-        self.last_min_gap = finish_advance(out, min_gap, 0.0, 0.0, decayed_hold(last.contact_hold, dt))
-        self._x, self.time, self._outputs = new_state(RigidState, (q1, w1, work1)), t_end, out
-        return out
-
-    def _free_outputs(self, q: float, w: float, work: float, cos_q: float, t: float, gap: float) -> Outputs:
-        """`_compute_outputs` of a free-flight step's end (q, w, work) (off the block, at gap `gap`; cos_q
-        the cosine of q), no contact force; the advance's summary is left to `finish_advance`."""
-        kinetic = 0.5 * self.inertia * w * w
-        potential = -self._mgd * cos_q
-        total = kinetic + potential + 0.0  # as _compute_outputs: plus the (zero) contact energy
-        # theta wrapped as math.remainder(q, 2 pi) does, which leaves |q| < pi as it is (a call spared)
-        theta = q if -math.pi < q < math.pi else math.remainder(q, TWO_PI)
-        # positional, in the order of Outputs' fields: time, theta, omega, gap, contact_force, kinetic,
-        # potential, strain, contact, total, torque_work, von_mises_max, substeps
-        return Outputs(t, theta, w, gap, 0.0, kinetic, potential, 0.0, 0.0, total, work, 0.0, 1)
+        stepped = new_state(RigidState, tuple(run.state.tolist()))
+        return AdvanceResult(stepped, run.substeps, run.rejected, run.min_gap, run.contact, run.stopped_at)
 
     def gap_and_rate(self, x: RigidState) -> tuple[float, float]:
         """Signed gap and its rate for the stepper; (inf, 0) when there is no contact law to resolve."""
         if not self.contact_on:
             return math.inf, 0.0
         q, w, _ = x
-        gap, slope = self.geometric_gap(q)
+        gap, slope = self.python_gap(q)
         return gap, slope * w
 
     def contact_scales(self, x: RigidState) -> tuple[float, float]:
@@ -286,7 +260,7 @@ class RigidModel(SteppedModel[RigidState]):
         if not self.contact_on:
             return math.inf, 0.0
         q, w, _ = x
-        gap, slope = self.geometric_gap(q)
+        gap, slope = self.python_gap(q)
         rate = slope * w
         if gap > NEAR_FRACTION * self._radius and rate >= 0.0:
             return math.inf, 0.0  # far and not approaching
@@ -340,7 +314,7 @@ class RigidModel(SteppedModel[RigidState]):
 
     # -------------------------------------------------------------- outputs
     def _compute_outputs(self, x: RigidState, t: float, substeps: int) -> Outputs:
-        """The outputs at state x (`_free_outputs` those of a free-flight step, without the contact)."""
+        """The outputs at state x."""
         q, w, work = x
         pen = self.contact_energy(q)
         gap, _ = self.geometric_gap(q)
