@@ -1,5 +1,8 @@
 """The README's examples run as written (as scikit-fem's tests/test_examples.py runs its examples).
 
+So do the examples that moved from README.md into the user guide (GUIDE_PAGES): the blocks of those pages that
+CHECKS or SHELL name run here as the README's do; their other blocks are not run.
+
 Each ```python block of README.md runs as a script in a fresh interpreter, in a folder where
 `dist/FemPendulum.fmu` exists (the session's build), and must exit 0 and print what it promises.
 A new block needs an entry in CHECKS: the test fails on a block it does not know.
@@ -33,8 +36,23 @@ ROOT = Path(__file__).resolve().parents[1]
 BLOCK = re.compile(r"^```python\n(.*?)^```", re.MULTILINE | re.DOTALL)
 
 
+# the user guide's pages that hold examples moved out of README.md
+GUIDE_PAGES = ("docs/guide/getting_started.md", "docs/guide/hosts.md", "docs/guide/sweeps.md")
+
+
 def python_blocks(text: str) -> list[str]:
     return BLOCK.findall(text)
+
+
+def documents() -> str:
+    """README.md and GUIDE_PAGES, one text."""
+    return "\n".join((ROOT / name).read_text() for name in ("README.md", *GUIDE_PAGES))
+
+
+def python_examples() -> list[str]:
+    """Every ```python block of README.md, and those of GUIDE_PAGES that CHECKS names."""
+    guide = python_blocks("\n".join((ROOT / name).read_text() for name in GUIDE_PAGES))
+    return python_blocks((ROOT / "README.md").read_text()) + [b for b in guide if any(key in b for key in CHECKS)]
 
 
 def _numbers(stdout: str) -> list[float]:
@@ -79,12 +97,14 @@ def test_the_readme_has_python_examples():
     assert len(blocks) >= 2
     for block in blocks:
         assert sum(key in block for key in CHECKS) == 1, f"no check (or several) for this README block:\n{block}"
+    for key in CHECKS:
+        assert sum(key in block for block in python_examples()) == 1, f"CHECKS' {key!r} is no example (or several)"
 
 
 @pytest.mark.slow  # measured under load: the fmpy example 31 s, the physics example 58 s (18 s of CPU)
-@pytest.mark.parametrize("index", range(len(python_blocks((ROOT / "README.md").read_text()))))
+@pytest.mark.parametrize("index", range(len(python_examples())))
 def test_readme_example_runs(index, fmus, tmp_path):
-    block = python_blocks((ROOT / "README.md").read_text())[index]
+    block = python_examples()[index]
     (tmp_path / "dist").mkdir()
     (tmp_path / "dist" / "FemPendulum.fmu").symlink_to(fmus[0])
     script = tmp_path / "example.py"
@@ -213,9 +233,10 @@ def check_ci(block: str, folder: Path) -> None:
         "rm -rf .venv dist/wheel",  # the README: it deletes .venv and builds it again
         "python3 -m venv .venv",
         ".venv/bin/python -m pip wheel --quiet --no-deps --wheel-dir dist/wheel .",
-        '.venv/bin/python -m pip install --quiet "${wheel}[test]"',
+        '.venv/bin/python -m pip install --quiet "${wheel}[test,docs]"',
         ".venv/bin/ruff check .",
         ".venv/bin/mypy fem_pendulum_fmu",
+        '.venv/bin/mkdocs build --strict --site-dir "$(mktemp -d)"',  # the README: it builds the documentation
         ".venv/bin/pytest -q",
     ):
         assert line in lines, line
@@ -343,7 +364,7 @@ def check_cluster(block: str, folder: Path) -> None:
         for option in (w for w in words if w.startswith("--")):
             assert option in helped.stdout, f"dask {words[1]} has no {option}"
     parses(sweep[1:])
-    (local,) = (b for b in bash_blocks(readme()) if "--workers 1 --out out/sweep" in b)
+    (local,) = (b for b in bash_blocks(documents()) if "--workers 1 --out out/sweep" in b)
     (local_sweep,) = fem_pendulum_arguments(local)
 
     def without(words: list[str], option: str) -> list[str]:
@@ -464,19 +485,19 @@ SHELL: dict[str, Runs | NotRun] = {
 
 
 def test_every_bash_block_is_known():
-    blocks = bash_blocks(readme())
-    for block in blocks:
+    for block in bash_blocks(readme()):
         assert sum(key in block for key in SHELL) == 1, (
             f"no entry (or several) in SHELL for this README block:\n{block}"
         )
+    blocks = bash_blocks(documents())
     for key in SHELL:
-        assert sum(key in block for block in blocks) == 1, f"SHELL's {key!r} is no README block (or several)"
+        assert sum(key in block for block in blocks) == 1, f"SHELL's {key!r} is no README or guide block (or several)"
 
 
 def test_every_fem_pendulum_command_is_current():
     # the blocks' commands and the prose's (`fem-pendulum interface --write-readme README.md`, ...) parse with the
     # current command line; placeholders in capitals (COMMAND) are not commands
-    text = readme()
+    text = documents()
     found = [a for block in bash_blocks(text) for a in fem_pendulum_arguments(block)]
     found += [shlex.split(s) for s in re.findall(r"`(?:\.venv/bin/)?fem-pendulum ([^`]*)`", text)]
     assert len(found) >= 12
@@ -486,7 +507,7 @@ def test_every_fem_pendulum_command_is_current():
 
 
 def _block(key: str) -> str:
-    (block,) = [b for b in bash_blocks(readme()) if key in b]
+    (block,) = [b for b in bash_blocks(documents()) if key in b]
     return block
 
 
