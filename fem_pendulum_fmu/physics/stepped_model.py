@@ -9,14 +9,15 @@ from typing import Generic
 
 import numpy as np
 
+from .compiled_advance import advance
 from .protocol import Outputs, StopAt, check_advance_args
-from .stepping import AdvanceResult, StepControl, X, advance
+from .stepping import AdvanceResult, StepControl, X
 from .torque import Torque, TorqueProfile
 
 
 class SteppedModel(Generic[X]):
     """`advance` and `outputs` of the protocol for a model whose whole state is `self._x`,
-    stepped by stepping.advance (rigid and reduced; the FE model adds threads and its Jacobian).
+    stepped by the step control (rigid and reduced; the FE model adds threads and its Jacobian).
 
     Needs `self._x`, `self.time`, `self.control`, the `Steppable` methods and
     `self._compute_outputs(x, t, substeps)`."""
@@ -56,7 +57,8 @@ class SteppedModel(Generic[X]):
         return self._outputs
 
     def _stepped(self, t_end: float, torque: Torque, stop: StopAt | None) -> AdvanceResult[X]:
-        """The advance's steps from the current state (stepping.advance; a model may run them elsewhere)."""
+        """The advance's steps from the current state (the core's step control over this model's Python functions;
+        a model whose functions are C runs them there)."""
         return advance(self, self._x, self.time, t_end, torque, self.control, stop)
 
     def outputs(self) -> Outputs:

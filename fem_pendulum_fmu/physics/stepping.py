@@ -65,25 +65,27 @@ each step, trial steps of the onset location included, as its exact mean over
 that step; the held-contact test uses its largest |T| over the advance. A
 constant torque is passed on as it is.
 
-Models supply the single energy-consistent step and the contact scales; this
-module only decides the step sizes. It also tallies the contact over the
-accepted steps of an advance (`ContactTally`): the largest contact force at
-their ends and the impulse, the sum of the scheme's own contact force times
-the step, so that an impact shorter than a communication step is still seen.
+Models supply the single energy-consistent step and the contact scales; the
+step control decides the step sizes. It also tallies the contact over the
+accepted steps of an advance: the largest contact force at their ends and the
+impulse, the sum of the scheme's own contact force times the step, so that an
+impact shorter than a communication step is still seen.
+
+The compiled core runs these rules for every fidelity (core/stepping.c, over a
+model in C or, through physics/compiled_advance.py, in Python); this module
+holds their settings and constants (`StepControl`, which the core is handed
+with the constants below) and an advance's result (`AdvanceResult`).
 """
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Generic, Protocol, TypeVar
 
 import numpy as np
 
-from .mass_properties import gravity_moment
-from .protocol import Outputs, StepFailed, StopAt
-from .torque import Torque, TorqueProfile, as_profile
+from .protocol import Outputs, StepFailed
 
 if TYPE_CHECKING:
     from .scene import Scene
@@ -204,150 +206,6 @@ class AdvanceResult(Generic[X]):
         return finish_advance(outputs, self.min_gap, c.force_max, math.hypot(c.impulse_x, c.impulse_y), c.hold)
 
 
-def advance(
-    model: Steppable[X],
-    x: X,
-    t: float,
-    t_end: float,
-    torque: Torque,
-    control: StepControl,
-    stop: StopAt | None = None,
-) -> AdvanceResult[X]:
-    """Integrate from t to t_end; raises StepFailed if a step cannot be completed. `torque` is a constant or
-    a TorqueProfile whose time starts at t. `stop` (protocol.StopAt) may end it after an internal step."""
-    substeps, rejected, min_gap = 0, 0, math.inf
-    dt_cap = control.max_step  # lowered after a failed solve, grows back on success
-    contact = _start_tally(model)
-    load = math.nan  # what the torque and gravity can press with, asked for once a contact is held long enough
-    profile, t_start = as_profile(torque), t
-    last_contact_dt = 0.0  # the size of the last step taken in contact in this advance (0: none yet)
-    while t_end - t > 0.0:
-        remaining = t_end - t
-        gap, rate = model.gap_and_rate(x)
-        min_gap = min(min_gap, gap)
-        view = _ContactView(model, x, control)
-        held = False
-        if contact.hold > 0.0 and contact.hold > HELD_CONTACTS * view.t_contact:
-            if math.isnan(load):
-                load = _load_force(model, profile.largest(t - t_start, t_end - t_start))
-            held = contact.force_now <= HELD_FORCE * load
-            if held:
-                view.hold()
-        longest = min(control.max_step, dt_cap)
-        dt = _step_size(view, control, (gap, rate), longest, remaining, last_contact_dt, held)
-        # named first: unpacked in place, mypy would solve the step's state type as X | None
-        onset = _step_locating_onset(model, x, dt, _StepTorque(profile, t - t_start), gap, view, control)
-        x_new, dt, fails = onset
-        rejected += fails
-        if x_new is None:
-            dt_cap = dt / 2.0
-            if dt_cap < control.min_step:
-                raise smallest_step_failed(control.min_step, t)
-            continue
-        contact.add(model, x, x_new, dt, gap)
-        last_contact_dt = dt if gap < 0.0 and not held else 0.0
-        x = x_new
-        t = t_end if dt >= remaining else t + dt
-        substeps += 1
-        if stop is not None and t < t_end and stop(t, gap, model.gap_and_rate(x)[0]):
-            break  # asked after every internal step but the last
-        check_substeps(control, substeps, t, t_end)
-        dt_cap = min(control.max_step, 2.0 * dt_cap)
-    min_gap = min(min_gap, model.gap_and_rate(x)[0])
-    return AdvanceResult(x, substeps, rejected, min_gap, contact, t if t < t_end else None)
-
-
-def _step_size(
-    view: _ContactView,
-    control: StepControl,
-    gap_rate: tuple[float, float],
-    longest: float,
-    remaining: float,
-    last_contact_dt: float,
-    held: bool,
-) -> float:
-    """The next step's size by the module's rules: `longest` (max_step, or less after a failed solve) in
-    free flight and in a `held` contact, the contact's step inside the wall, cut to end where
-    the gap closes on the approach; never under min_step, and the whole remainder where less would be
-    left."""
-    gap, rate = gap_rate
-    dt = longest
-    if held:
-        pass  # free-flight steps, and no onset to locate (view.hold)
-    elif gap < 0.0:
-        dt = min(dt, view.dt_contact)
-        if control.even_contact_steps:
-            dt = _even_step(dt, remaining, last_contact_dt)
-    elif rate < 0.0 and gap / -rate < dt:  # t_hit >= gap / -rate: a farther wall cannot shorten the step
-        t_hit = (gap + view.pen_tol) / -rate
-        dt = min(dt, max(t_hit, view.dt_contact))
-    dt = max(dt, control.min_step)
-    return remaining if remaining - dt < control.min_step else dt
-
-
-class _ContactView:
-    """The contact scales of a state as step control uses them (duration t_contact, steps n_contact, step
-    dt_contact = t_contact / n_contact, the onset's penetration tolerance pen_tol = d_max / n_contact),
-    asked of the model only when a step needs them: far from the wall, in free flight, none does, and
-    they cost as much as the rest of a free-flight step's contact geometry (docs/fem.md, change 22)."""
-
-    __slots__ = ("_model", "_x", "_control", "_scales")
-
-    def __init__(self, model: Steppable[X], x: X, control: StepControl):
-        self._model, self._x, self._control = model, x, control
-        self._scales: tuple[float, float, float] | None = None  # t_contact, dt_contact, pen_tol
-
-    def _get(self) -> tuple[float, float, float]:
-        if self._scales is None:
-            t_contact, d_max = self._model.contact_scales(self._x)
-            n_contact = self._control.contact_steps(t_contact)
-            self._scales = (t_contact, t_contact / n_contact, d_max / n_contact)
-        return self._scales
-
-    @property
-    def t_contact(self) -> float:
-        return self._get()[0]
-
-    @property
-    def dt_contact(self) -> float:
-        return self._get()[1]
-
-    @property
-    def pen_tol(self) -> float:
-        return self._get()[2]
-
-    def hold(self) -> None:
-        """A held contact: free-flight steps, and no onset to locate (an infinite contact step)."""
-        t_contact, _, pen_tol = self._get()
-        self._scales = (t_contact, math.inf, pen_tol)
-
-
-class _StepTorque:
-    """The torque of a step from offset `s` (time since the advance's start) as the midpoint-type
-    schemes take it: the profile's exact mean over the step (the constant itself for a constant)."""
-
-    __slots__ = ("profile", "s")
-
-    def __init__(self, profile: TorqueProfile, s: float):
-        self.profile, self.s = profile, s
-
-    def over(self, dt: float) -> float:
-        return self.profile.mean(self.s, self.s + dt)
-
-
-def _even_step(longest: float, remaining: float, last: float) -> float:
-    """A step of StepControl.even_contact_steps: the last one's size if it is no longer than `longest` and at
-    least STEP_KEPT of it, and divides what remains (to round-off); else the remaining time divided into
-    equal steps no longer than `longest`, or than `last` where that is kept."""
-    if STEP_KEPT * longest <= last <= longest:
-        count = remaining / last
-        if abs(count - round(count)) <= 1e-9 * count:
-            return last
-        longest = last
-    count = math.ceil(remaining / longest * (1.0 - 1e-12))
-    return remaining / count if count > 1 else remaining
-
-
 def smallest_step_failed(min_step: float, t: float) -> StepFailed:
     """The failure of an advance whose step failed at every size down to min_step, at t."""
     return StepFailed(f"the nonlinear solve failed down to the smallest step {min_step:g} s at t = {t:.9g} s")
@@ -384,86 +242,12 @@ def decayed_hold(hold: float, dt: float) -> float:
 
 
 def _hold_after(hold: float, gap0: float, gap1: float, dt: float) -> float:
-    """The hold after a step from gap0 to gap1: plus its time in contact, minus HOLD_DECAY of its time
-    outside, the crossing of a step that enters or leaves contact placed by the gaps (linearly)."""
+    """The hold after a step from gap0 to gap1 (the seed schemes' step control; the core's is stepping.c's):
+    plus its time in contact, minus HOLD_DECAY of its time outside, the crossing of a step that enters or
+    leaves contact placed by the gaps (linearly)."""
     if gap0 < 0.0 and gap1 < 0.0:
         return hold + dt
     if gap0 >= 0.0 and gap1 >= 0.0:
         return decayed_hold(hold, dt)
     inside = dt * (gap1 / (gap1 - gap0) if gap1 < 0.0 else gap0 / (gap0 - gap1))
     return max(hold + inside - HOLD_DECAY * (dt - inside), 0.0)
-
-
-def _start_tally(model: object) -> ContactTally:
-    """The tally of an advance, with the contact's hold and force as the model's current outputs
-    report them (none for a model without outputs, such as a bare Steppable)."""
-    outputs = getattr(model, "outputs", None)
-    if not callable(outputs):
-        return ContactTally()
-    now = outputs()
-    return ContactTally(hold=float(now.contact_hold), force_now=float(now.contact_force))
-
-
-@functools.lru_cache(maxsize=16)
-def _gravity_moment(scene: Scene) -> float:
-    return gravity_moment(scene)
-
-
-def _load_force(model: object, torque: float) -> float:
-    """(|T| + m g d |sin theta|) / D: the largest force the torque and gravity can press the head on
-    a face with, at the head centre's depth D and the angle the advance started at (0 for a model
-    without a scene and outputs)."""
-    scene, outputs = getattr(model, "scene", None), getattr(model, "outputs", None)
-    if scene is None or not callable(outputs):
-        return 0.0
-    gravity = _gravity_moment(scene) * abs(math.sin(outputs().theta))
-    return (abs(torque) + gravity) / scene.geometry.head_centre_depth
-
-
-def _step_locating_onset(
-    model: Steppable[X],
-    x: X,
-    dt: float,
-    torque: _StepTorque,
-    gap0: float,
-    view: _ContactView,
-    control: StepControl,
-) -> tuple[X | None, float, int]:
-    """Take one step; if it plunges from free flight deeper than pen_tol, re-aim it at the onset.
-
-    Bracketing regula falsi on the step size: `lo` ends outside, `hi` too deep.
-    Returns (new state or None, the step size taken, number of rejected trials)."""
-    x_new = model.step(x, dt, torque.over(dt))
-    if x_new is None:
-        return None, dt, 1
-    if gap0 < 0.0:
-        return x_new, dt, 0
-    g_hi, _ = model.gap_and_rate(x_new)
-    if g_hi >= 0.0:  # taken whatever the scales (pen_tol >= 0): they are not asked for
-        return x_new, dt, 0
-    pen_tol, dt_contact = view.pen_tol, view.dt_contact
-    if dt <= dt_contact or g_hi >= -pen_tol:
-        return x_new, dt, 0
-    lo, g_lo, x_lo = 0.0, gap0, None
-    hi = dt
-    fails = 1
-    for _ in range(control.max_onset_iterations):
-        if hi - lo <= dt_contact:
-            break
-        trial_dt = lo + (hi - lo) * g_lo / (g_lo - g_hi)
-        trial_dt = min(max(trial_dt, lo + 0.05 * (hi - lo)), hi - 0.05 * (hi - lo))
-        trial = model.step(x, trial_dt, torque.over(trial_dt))
-        if trial is None:
-            return None, trial_dt, fails + 1
-        g, _ = model.gap_and_rate(trial)
-        if -pen_tol <= g <= pen_tol:
-            return trial, trial_dt, fails
-        if g > pen_tol:
-            lo, g_lo, x_lo = trial_dt, g, trial
-        else:
-            hi, g_hi = trial_dt, g
-        fails += 1
-    if x_lo is not None:
-        return x_lo, lo, fails
-    dt = max(min(hi, dt_contact), control.min_step)
-    return model.step(x, dt, torque.over(dt)), dt, fails

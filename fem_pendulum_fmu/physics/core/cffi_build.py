@@ -43,8 +43,18 @@ def compile_args() -> list[str]:
 
 ffibuilder = FFI()
 ffibuilder.cdef(declarations(HEADER.read_text()))
-# the one callback into Python: an advance's `stop` (physics/protocol.py, StopAt), as a femp_stop_fn
-ffibuilder.cdef('extern "Python" int femp_python_stop(void *, double, double, double);')
+# the callbacks into Python: an advance's `stop` (physics/protocol.py, StopAt) as a femp_stop_fn, and the functions
+# of a model in Python as a struct femp_steppable's (physics/compiled_advance.py)
+ffibuilder.cdef(
+    """
+    extern "Python" int femp_python_stop(void *, double, double, double);
+    extern "Python" int femp_python_step(void *, const double *, double, double, double *);
+    extern "Python" void femp_python_gap_and_rate(void *, const double *, double *, double *);
+    extern "Python" void femp_python_contact_scales(void *, const double *, double *, double *);
+    extern "Python" double femp_python_contact_force(void *, const double *);
+    extern "Python" void femp_python_contact_impulse(void *, const double *, const double *, double, double *);
+    """
+)
 ffibuilder.set_source(
     "fem_pendulum_fmu.physics.core._femp_core",
     '#include "femp_core.h"',

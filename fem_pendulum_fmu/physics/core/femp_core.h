@@ -186,6 +186,9 @@ int femp_reduced_step(const struct femp_reduced *R, const double *z0, const doub
 struct femp_step_control {
     double max_step, tolerance, min_step;
     int max_onset_iterations, max_substeps, timing_rule, even_contact_steps;
+    /* the rules' constants (physics/stepping.py names them and says why) */
+    int min_steps_per_contact;
+    double held_contacts, held_force, step_kept, hold_decay;
 };
 
 /* T(s) = value + rate s + curvature s^2 / 2, s the time since the advance's start */
@@ -229,6 +232,27 @@ void femp_rigid_gap(const struct femp_rigid *R, double theta, double *out);
 int femp_rigid_advance(const struct femp_rigid *R, const struct femp_step_control *control,
                        const struct femp_torque *torque, double *x, struct femp_advance *a, femp_stop_fn stop,
                        void *context);
+
+/* A model the step control advances: its state is `size` doubles; each function reads states and writes
+ * only its outputs. The fidelities' models are C; a Python model's functions are the binding's callbacks. */
+struct femp_steppable {
+    void *self;
+    int size;
+    /* one energy-consistent step of size dt from x0 into x1; 0 where the nonlinear solve failed */
+    int (*step)(void *self, const double *x0, double dt, double torque, double *x1);
+    /* the smallest signed gap (m, negative inside) and its time derivative */
+    void (*gap_and_rate)(void *self, const double *x, double *gap, double *rate);
+    /* the contact's estimated duration (s) and largest depth (m); (inf, 0) with none in view */
+    void (*contact_scales)(void *self, const double *x, double *t_contact, double *d_max);
+    /* the resultant contact force's magnitude (N) */
+    double (*contact_force)(void *self, const double *x);
+    /* the step's contact impulse on the pendulum (N.s, a 2-vector), as the scheme applies it */
+    void (*contact_impulse)(void *self, const double *x0, const double *x1, double dt, double *j);
+};
+
+/* Integrate x (in place) from a->t_start to a->t_end; the result in a (femp_core.h). */
+int femp_advance(const struct femp_steppable *m, const struct femp_step_control *c, const struct femp_torque *T,
+                 double *x, struct femp_advance *a, femp_stop_fn stop, void *context);
 
 /* The reduced model's advance (reduced_advance.c): x = (z, p, torque work), 2 (m + 1) + 1 entries. */
 int femp_reduced_advance(const struct femp_reduced *R, const struct femp_step_control *control,

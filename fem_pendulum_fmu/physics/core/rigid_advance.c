@@ -222,10 +222,9 @@ static int free_step(const Rigid *R, const struct femp_step_control *c, double t
     if (!solve_free(R, x[0], x[1], dt, torque, &u) && !solve(R, x[0], x[1], dt, torque, 0, &u)) return 0;
     if (R->contact_on && !(gap0 > R->reach * fabs(u) + FREE_MARGIN)) return 0;
     x[2] = x[2] + torque * u, x[1] = 2.0 * u / dt - x[1], x[0] = x[0] + u;
-    double decayed = a->hold - 0.2 * dt; /* stepping.py, decayed_hold */
     a->status = FEMP_ADVANCE_DONE, a->substeps = 1, a->rejected = 0, a->t_reached = a->t_end;
     a->min_gap = R->contact_on ? gap0 : INFINITY, a->force_max = a->impulse_x = a->impulse_y = a->force_now = 0.0;
-    a->hold = decayed > 0.0 ? decayed : 0.0;
+    a->hold = femp_decayed_hold(c, a->hold, dt);
     if (stop != NULL) {
         double gap1[2];
         femp_rigid_gap(R, x[0], gap1);

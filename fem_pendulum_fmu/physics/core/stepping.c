@@ -13,12 +13,6 @@
 #include "femp_core.h"
 #include "stepping.h"
 
-#define MIN_STEPS_PER_CONTACT 16
-#define HELD_CONTACTS 3.0
-#define HELD_FORCE 10.0
-#define STEP_KEPT 0.8
-#define HOLD_DECAY 0.2
-
 static int ceil_int(double x) { return (int)ceil(x); }
 
 /* steps per contact by the phase rule, never fewer than 8 */
@@ -31,7 +25,7 @@ static int contact_steps(const struct femp_step_control *c, double t_contact) {
     int most = steps_per_contact(c);
     if (!c->timing_rule || !(t_contact < INFINITY)) return most;
     int needed = ceil_int(FEMP_PI * sqrt(t_contact / (12.0 * c->tolerance * c->max_step)));
-    int n = needed > MIN_STEPS_PER_CONTACT ? needed : MIN_STEPS_PER_CONTACT;
+    int n = needed > c->min_steps_per_contact ? needed : c->min_steps_per_contact;
     return n < most ? n : most;
 }
 
@@ -74,24 +68,24 @@ static double torque_largest(const struct femp_torque *T, double s0, double s1) 
     return found;
 }
 
-static double decayed_hold(double hold, double dt) {
-    double decayed = hold - HOLD_DECAY * dt;
+double femp_decayed_hold(const struct femp_step_control *c, double hold, double dt) {
+    double decayed = hold - c->hold_decay * dt;
     return decayed > 0.0 ? decayed : 0.0;
 }
 
-static double hold_after(double hold, double gap0, double gap1, double dt) {
+static double hold_after(const struct femp_step_control *c, double hold, double gap0, double gap1, double dt) {
     if (gap0 < 0.0 && gap1 < 0.0) return hold + dt;
-    if (gap0 >= 0.0 && gap1 >= 0.0) return decayed_hold(hold, dt);
+    if (gap0 >= 0.0 && gap1 >= 0.0) return femp_decayed_hold(c, hold, dt);
     double inside = dt * (gap1 < 0.0 ? gap1 / (gap1 - gap0) : gap0 / (gap0 - gap1));
-    return fmax(hold + inside - HOLD_DECAY * (dt - inside), 0.0);
+    return fmax(hold + inside - c->hold_decay * (dt - inside), 0.0);
 }
 
 /* count an accepted step from x0 (gap gap0) to x1 (stepping.py, ContactTally.add) */
-static void tally(const struct femp_steppable *m, struct femp_advance *a, const double *x0, const double *x1,
-                  double dt, double gap0) {
+static void tally(const struct femp_steppable *m, const struct femp_step_control *c, struct femp_advance *a,
+                  const double *x0, const double *x1, double dt, double gap0) {
     double gap1, rate, j[2];
     m->gap_and_rate(m->self, x1, &gap1, &rate);
-    a->hold = hold_after(a->hold, gap0, gap1, dt);
+    a->hold = hold_after(c, a->hold, gap0, gap1, dt);
     a->force_now = 0.0;
     if (gap0 >= 0.0 && gap1 >= 0.0) return;
     m->contact_impulse(m->self, x0, x1, dt, j);
@@ -103,8 +97,8 @@ static void tally(const struct femp_steppable *m, struct femp_advance *a, const 
     }
 }
 
-static double even_step(double longest, double remaining, double last) {
-    if (STEP_KEPT * longest <= last && last <= longest) {
+static double even_step(double step_kept, double longest, double remaining, double last) {
+    if (step_kept * longest <= last && last <= longest) {
         double count = remaining / last;
         if (fabs(count - round(count)) <= 1e-9 * count) return last;
         longest = last;
@@ -120,7 +114,7 @@ static double step_size(View *v, const struct femp_step_control *c, double gap, 
     } else if (gap < 0.0) {
         view_make(v);
         dt = fmin(dt, v->dt_contact);
-        if (c->even_contact_steps) dt = even_step(dt, remaining, last_contact_dt);
+        if (c->even_contact_steps) dt = even_step(c->step_kept, dt, remaining, last_contact_dt);
     } else if (rate < 0.0 && gap / -rate < dt) {
         view_make(v);
         double t_hit = (gap + v->pen_tol) / -rate;
@@ -191,9 +185,9 @@ static double load_force(const struct femp_advance *a, const struct femp_torque 
 static int is_held(const struct femp_advance *a, View *v, const struct femp_torque *T, double s, double *load) {
     if (!(a->hold > 0.0)) return 0;
     view_make(v);
-    if (!(a->hold > HELD_CONTACTS * v->t_contact)) return 0;
+    if (!(a->hold > v->control->held_contacts * v->t_contact)) return 0;
     if (isnan(*load)) *load = load_force(a, T, s, a->t_end - a->t_start);
-    if (!(a->force_now <= HELD_FORCE * *load)) return 0;
+    if (!(a->force_now <= v->control->held_force * *load)) return 0;
     v->dt_contact = INFINITY; /* a held contact: free-flight steps, and no onset to locate */
     return 1;
 }
@@ -223,7 +217,7 @@ int femp_advance(const struct femp_steppable *m, const struct femp_step_control 
             }
             continue;
         }
-        tally(m, a, x, x_new, dt, gap);
+        tally(m, c, a, x, x_new, dt, gap);
         last_contact_dt = gap < 0.0 && !held ? dt : 0.0;
         memcpy(x, x_new, sizeof(double) * size);
         t = dt >= remaining ? t_end : t + dt;

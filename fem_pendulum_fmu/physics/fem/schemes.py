@@ -39,7 +39,7 @@ from ngsolve import (
     specialcf,
 )
 
-from .. import material, stepping
+from .. import compiled_advance, material
 from ..scene import Material, Scene
 from . import contact_law, seed_stepping
 from .head import PairGuard
@@ -258,10 +258,10 @@ def newmark_form(space: FemSpace, inputs: StepInputs) -> StepForm:
 
 # ------------------------------------------------------------------ the schemes
 class EnergyMomentum:
-    """The FE model's own scheme, stepped by stepping.py."""
+    """The FE model's own scheme, stepped by the core's step control (stepping.py states its rules)."""
 
     build = staticmethod(energy_momentum_form)
-    stepper = staticmethod(stepping.advance)  # the step control of its advances
+    stepper = staticmethod(compiled_advance.advance)  # the step control of its advances
     carries_acceleration = False
 
     def __init__(self, scene: Scene):
