@@ -19,6 +19,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Literal, get_args
 
+from ..physics.names import python_name
 from ..physics.scene import Scene
 from .fmi_names import FMI3_TYPES, FmiVersion, fmi_text
 
@@ -27,24 +28,26 @@ TEMPLATE_NAME = "modelDescription.template.xml"
 ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}
 # parameters of the FMU's field output (fmi/vtk_output.py), not of the physics: no Scene field takes them
 FMU_ONLY_PARAMETERS = ("output.vtk_folder", "output.vtk_interval")
-# FMI output name -> field of physics.protocol.Outputs
-OUTPUT_FIELDS = {
-    "theta": "theta",
-    "omega": "omega",
-    "gap": "gap",
-    "contact_force": "contact_force",
-    "energy.kinetic": "kinetic",
-    "energy.potential": "potential",
-    "energy.strain": "strain",
-    "energy.contact": "contact",
-    "energy.total": "total",
-    "energy.torque_work": "torque_work",
-    "stress.von_mises_max": "von_mises_max",
-    "solver.substeps": "substeps",
-    "gap_min": "min_gap",
-    "contact_force_max": "contact_force_max",
-    "contact_impulse": "contact_impulse",
-}
+# the FMU's outputs, in the template's order
+OUTPUT_NAMES = (
+    "theta",
+    "omega",
+    "gap",
+    "contact_force",
+    "energy.kinetic",
+    "energy.potential",
+    "energy.strain",
+    "energy.contact",
+    "energy.total",
+    "energy.torque_work",
+    "stress.von_mises_max",
+    "solver.substeps",
+    "gap_min",
+    "contact_force_max",
+    "contact_impulse",
+)
+# FMI output name -> field of physics.protocol.Outputs: the same name, '.' written '_' (physics/names.py)
+OUTPUT_FIELDS = {name: python_name(name) for name in OUTPUT_NAMES}
 
 
 VariableType = Literal["Real", "Integer", "Boolean", "Enumeration", "String"]

@@ -6,6 +6,7 @@ The FMI slave and the masters only ever see `PendulumModel`, `Outputs` and
 
 from __future__ import annotations
 
+import functools
 import io
 import json
 import math
@@ -15,6 +16,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from .names import OLD_OUTPUT_NAMES, RenamedKeys, warn_renamed
 from .scene import Scene
 from .torque import Torque, TorqueProfile
 
@@ -33,22 +35,26 @@ class StepFailed(RuntimeError):
 
 @dataclass
 class Outputs:
-    """Everything a model reports after an advance (SI units)."""
+    """Everything a model reports after an advance (SI units).
+
+    Each field is the FMU output of the same name, its '.' written '_' (physics/names.py):
+    `energy_total` is the FMU's energy.total. The names before that rule (`total`, `min_gap`, ...)
+    still read, with a DeprecationWarning."""
 
     time: float = 0.0
     theta: float = 0.0
     omega: float = 0.0
     gap: float = 0.0
     contact_force: float = 0.0
-    kinetic: float = 0.0
-    potential: float = 0.0
-    strain: float = 0.0
-    contact: float = 0.0
-    total: float = 0.0
-    torque_work: float = 0.0
-    von_mises_max: float = 0.0
-    substeps: int = 0
-    min_gap: float = math.nan  # smallest gap at the internal steps of the last advance; nan = not reported
+    energy_kinetic: float = 0.0
+    energy_potential: float = 0.0
+    energy_strain: float = 0.0
+    energy_contact: float = 0.0
+    energy_total: float = 0.0
+    energy_torque_work: float = 0.0
+    stress_von_mises_max: float = 0.0
+    solver_substeps: int = 0
+    gap_min: float = math.nan  # smallest gap at the internal steps of the last advance; nan = not reported
     contact_force_max: float = 0.0  # largest contact force at the internal steps of the last advance (N)
     contact_impulse: float = 0.0  # |sum over those steps of the scheme's contact force times the step| (N.s)
     # the contact's hold at the end of the last advance (s): time in contact less time out of it since it
@@ -56,27 +62,57 @@ class Outputs:
     contact_hold: float = 0.0
 
     def as_dict(self) -> dict[str, float]:
-        return asdict(self)
+        """Field name -> value; the old names still index it (with a DeprecationWarning)."""
+        return RenamedKeys(asdict(self))
 
+
+def _old_name(old: str, new: str) -> property:
+    """A read-only property `old` that warns and reads the field `new`."""
+
+    def read(self: Outputs) -> Any:
+        warn_renamed(old, new, "Outputs field")
+        return getattr(self, new)
+
+    return property(read, doc=f"Deprecated name of `{new}`.")
+
+
+def _accepting_old_keywords(init: Callable[..., None]) -> Callable[..., None]:
+    """Outputs' __init__, taking the old field names as keywords too (with a DeprecationWarning)."""
+
+    @functools.wraps(init)
+    def __init__(self: Outputs, *args: Any, **values: Any) -> None:
+        if values and not OLD_OUTPUT_NAMES.keys().isdisjoint(values):
+            for old in OLD_OUTPUT_NAMES.keys() & values.keys():
+                warn_renamed(old, OLD_OUTPUT_NAMES[old], "Outputs field")
+                values[OLD_OUTPUT_NAMES[old]] = values.pop(old)
+        init(self, *args, **values)
+
+    return __init__
+
+
+for _old, _new in OLD_OUTPUT_NAMES.items():
+    setattr(Outputs, _old, _old_name(_old, _new))
+del _old, _new
+Outputs.__init__ = _accepting_old_keywords(Outputs.__init__)  # type: ignore[method-assign]
 
 CONTINUOUS_OUTPUTS = (
     "theta",
     "omega",
     "gap",
     "contact_force",
-    "kinetic",
-    "potential",
-    "strain",
-    "contact",
-    "total",
-    "torque_work",
-    "von_mises_max",
+    "energy_kinetic",
+    "energy_potential",
+    "energy_strain",
+    "energy_contact",
+    "energy_total",
+    "energy_torque_work",
+    "stress_von_mises_max",
 )
 """The Outputs fields that are functions of the state at an instant, whose time derivatives exist."""
 
 SUMMARY_OUTPUTS = {
-    "substeps": "it counts the internal steps of the last doStep",
-    "min_gap": "it is the smallest gap over the internal steps of the last doStep",
+    "solver_substeps": "it counts the internal steps of the last doStep",
+    "gap_min": "it is the smallest gap over the internal steps of the last doStep",
     "contact_force_max": "it is the largest contact force over the internal steps of the last doStep",
     "contact_impulse": "it is the contact impulse over the whole last doStep",
     "contact_hold": "it is the contact's hold as the step control counts it",
@@ -92,6 +128,10 @@ class OutputDerivatives:
     time: float
     first: dict[str, float]
     second: dict[str, float]
+
+    def __post_init__(self) -> None:
+        # indexed by users with the field names, the old ones included (with a DeprecationWarning)
+        self.first, self.second = RenamedKeys(self.first), RenamedKeys(self.second)
 
     def of(self, field_name: str, order: int) -> float:
         """The derivative of `order` (1 or 2) of an Outputs field; KeyError for a field without one."""
@@ -207,14 +247,15 @@ def check_advance_args(time: float, t_end: float, torque: Torque) -> None:
 
 
 ADVANCE_SUMMARY_KEYS = {
-    "substeps": "substeps",
-    "min_gap": "last_min_gap",
+    "solver_substeps": "substeps",
+    "gap_min": "last_min_gap",
     "contact_force_max": "last_contact_force_max",
     "contact_impulse": "last_contact_impulse",
     "contact_hold": "last_contact_hold",
 }
 """The outputs that describe the last advance rather than the state, and the ModelState scalars that
-carry them. Every fidelity's state has them (written once, by `model_state`), and
+carry them (the state's keys are those of the states serialised before the outputs' renaming, so
+that they still restore). Every fidelity's state has them (written once, by `model_state`), and
 `restore_advance_summary` puts them back, so a restored model reports what the original did;
 contact_hold also steers the next advance's steps, so a restored state steps exactly as the original."""
 
@@ -229,10 +270,10 @@ def model_state(
 
 def restore_advance_summary(state: ModelState, outputs: Outputs) -> Outputs:
     """Set the advance summary of `outputs`, computed afresh from a restored state, to the one `state`
-    was taken with (a state without it: no steps, the gap as min_gap, no contact)."""
+    was taken with (a state without it: no steps, the gap as gap_min, no contact)."""
     sc = state.scalars
-    outputs.substeps = int(sc.get("substeps", 0))
-    outputs.min_gap = float(sc.get("last_min_gap", outputs.gap))
+    outputs.solver_substeps = int(sc.get("substeps", 0))
+    outputs.gap_min = float(sc.get("last_min_gap", outputs.gap))
     for name in ("contact_force_max", "contact_impulse", "contact_hold"):
         setattr(outputs, name, float(sc.get(ADVANCE_SUMMARY_KEYS[name], 0.0)))
     return outputs

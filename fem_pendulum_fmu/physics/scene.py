@@ -9,10 +9,13 @@ what is allowed; `validate` raises one ValueError that lists them all.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal, get_args
+
+from .names import RenamedKeys, dotted_keywords, warn_renamed
 
 WallKind = Literal["rigid", "deformable", "none"]
 Fidelity = Literal["auto", "rigid", "reduced", "fem"]
@@ -128,27 +131,76 @@ def element_order(scene: Scene) -> int:
     return SOFT_ORDER if scene.pendulum.soft else STIFF_ORDER
 
 
-def stiff(**values: Any) -> Scene:
-    """Steel pendulum (the default scene)."""
-    return Scene().with_values(_dotted(values))
+def steel(**values: Any) -> Scene:
+    """The steel pendulum (the default scene), with `values` changed.
+
+    Parameters
+    ----------
+    **values
+        Parameters by their FMU names, each '.' written '_' (``pendulum_E=1e9``, ``model_fidelity="rigid"``).
+
+    Returns
+    -------
+    Scene
+        Not validated: `validate` or `create` refuses a bad value.
+
+    Raises
+    ------
+    KeyError
+        A keyword that names no parameter.
+    """
+    return _preset(Scene(), values)
 
 
-def compliant(**values: Any) -> Scene:
-    """Rubber-like pendulum: E 1 MPa, nu 0.45, rho 1000, k 5e9 Pa/m.
+def rubber(**values: Any) -> Scene:
+    """The rubber pendulum: E 1 MPa, nu 0.45, rho 1000, k 5e9 Pa/m, with `values` changed (as `steel`).
 
     model.order auto (element_order) gives it order-3 elements: the coarsest discretisation whose angle
     and gap stay within 0.5 degree and 1 mm of a fine reference through an impact
-    (benchmarks/mesh_study.py --preset compliant, docs/fem.md)."""
-    base = Scene(pendulum=Material(E=1e6, nu=0.45, rho=1000.0), contact=Contact(stiffness=5e9))
-    return base.with_values(_dotted(values))
+    (benchmarks/mesh_study.py --preset rubber, docs/fem.md)."""
+    return _preset(_rubber(), values)
 
 
-PRESETS = {"stiff": stiff, "compliant": compliant}
+def _rubber() -> Scene:
+    return Scene(pendulum=Material(E=1e6, nu=0.45, rho=1000.0), contact=Contact(stiffness=5e9))
 
 
-def _dotted(values: Mapping[str, Any]) -> dict[str, Any]:
-    """Keyword form pendulum__E=... to dotted form pendulum.E=..."""
-    return {k.replace("__", "."): v for k, v in values.items()}
+def _preset(base: Scene, values: Mapping[str, Any]) -> Scene:
+    """`base` with keyword values (names.dotted_keywords; its warning points at the preset's caller)."""
+    return base.with_values(dotted_keywords(values, scene_names(), stacklevel=4))
+
+
+def stiff(**values: Any) -> Scene:
+    """Deprecated name of `steel`."""
+    warn_renamed("stiff", "steel", "the preset")
+    return _preset(Scene(), values)
+
+
+def compliant(**values: Any) -> Scene:
+    """Deprecated name of `rubber`."""
+    warn_renamed("compliant", "rubber", "the preset")
+    return _preset(_rubber(), values)
+
+
+class _Presets(RenamedKeys):
+    """PRESETS: preset name -> function; the old names still index it (with a DeprecationWarning)."""
+
+    old_names = {"stiff": "steel", "compliant": "rubber"}
+    what = "the preset"
+
+
+PRESETS = _Presets(steel=steel, rubber=rubber)
+"""The scenes by the name the command lines and benchmarks give them."""
+
+
+@functools.lru_cache(maxsize=1)
+def scene_names() -> tuple[str, ...]:
+    """Every parameter's dotted name, the Scene's attribute path ("theta0", "pendulum.E", "geometry.head_radius")."""
+    names: list[str] = []
+    for name, value in vars(Scene()).items():
+        fields = dataclasses.fields(value) if dataclasses.is_dataclass(value) else ()
+        names.extend([f"{name}.{f.name}" for f in fields] or [name])
+    return tuple(names)
 
 
 def replace_path(scene: Scene, values: Mapping[str, Any]) -> Scene:

@@ -283,4 +283,4 @@ class FemModel:
         self.newton.ready = False
         self.time = state.time
         self._outputs = restore_advance_summary(state, self.measures.of(self._state, self.time, 0))
-        self.last_min_gap = self._outputs.min_gap
+        self.last_min_gap = self._outputs.gap_min
