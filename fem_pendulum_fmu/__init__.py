@@ -5,7 +5,7 @@ FMU and fem_pendulum_fmu/masters/ drives FMUs. The public API of the physics is 
 
     from fem_pendulum_fmu import create, rubber
     model = create(rubber())
-    out = model.advance(0.5, torque=0.0)
+    out = model.advance(0.5)  # to the absolute time 0.5 s; torque 0 N.m unless given
     out.energy_total  # the FMU's output energy.total: its names, '.' written '_'
 
 Its names load on first use (the command line and the FMU's start-up do not pay for numpy here).

@@ -7,6 +7,7 @@ The FMI slave and the masters only ever see `PendulumModel`, `Outputs` and
 from __future__ import annotations
 
 import functools
+import inspect
 import io
 import json
 import math
@@ -24,9 +25,13 @@ from .torque import Torque, TorqueProfile
 class StepFailed(RuntimeError):
     """The model could not complete an advance; its state is as it was before the call.
 
-    `shorter_step_helps`: an advance over a shorter interval from the same state can succeed (the
-    internal steps an advance may take ran out, solver.max_substeps); False when the nonlinear solve
-    failed down to the smallest internal step, where only another input or an earlier state can."""
+    Attributes
+    ----------
+    shorter_step_helps : bool
+        True: an advance over a shorter interval from the same state can succeed (the internal steps an
+        advance may take ran out, solver.max_substeps). False: the nonlinear solve failed down to the
+        smallest internal step, where only another input or an earlier state can.
+    """
 
     def __init__(self, message: str, shorter_step_helps: bool = False):
         super().__init__(message)
@@ -134,7 +139,25 @@ class OutputDerivatives:
         self.first, self.second = RenamedKeys(self.first), RenamedKeys(self.second)
 
     def of(self, field_name: str, order: int) -> float:
-        """The derivative of `order` (1 or 2) of an Outputs field; KeyError for a field without one."""
+        """The derivative of one output.
+
+        Parameters
+        ----------
+        field_name : str
+            An Outputs field of CONTINUOUS_OUTPUTS, e.g. "energy_total".
+        order : int
+            1 or 2.
+
+        Returns
+        -------
+        float
+            In the field's unit per s (order 1) or per s^2 (order 2).
+
+        Raises
+        ------
+        KeyError
+            A field without a time derivative (SUMMARY_OUTPUTS) or no field.
+        """
         return (self.first if order == 1 else self.second)[field_name]
 
 
@@ -165,7 +188,13 @@ class ModelState:
         )
 
     def to_bytes(self) -> bytes:
-        """Serialise to a self-describing .npz byte string (no pickle)."""
+        """Serialise, for an FMU state a master stores (fmi2SerializeFMUstate).
+
+        Returns
+        -------
+        bytes
+            A self-describing .npz (no pickle: loading it runs no code).
+        """
         header = {
             "format": "fem_pendulum_fmu.state",
             "version": 1,
@@ -181,7 +210,21 @@ class ModelState:
 
     @staticmethod
     def from_bytes(data: bytes) -> ModelState:
-        """Inverse of to_bytes; raises ValueError on anything that is not such a state."""
+        """The state `to_bytes` serialised.
+
+        Parameters
+        ----------
+        data : bytes
+
+        Returns
+        -------
+        ModelState
+
+        Raises
+        ------
+        ValueError
+            Anything that is not such a state, or one of an unknown version.
+        """
         try:
             with np.load(io.BytesIO(bytes(data)), allow_pickle=False) as npz:
                 header = json.loads(npz["__header__"].tobytes().decode())
@@ -201,36 +244,127 @@ StopAt = Callable[[float, float, float], bool]
 
 @runtime_checkable
 class PendulumModel(Protocol):
-    """What the slave and the masters need from any fidelity."""
+    """What the slave and the masters need from any fidelity (`create` builds one).
+
+    Attributes
+    ----------
+    scene : Scene
+        The validated scene the model was built from.
+    fidelity : str
+        "rigid", "reduced" or "fem": the model that runs ("auto" is resolved by `create`).
+    time : float
+        The model time (s), the absolute time that `advance` integrates up to.
+    """
 
     scene: Scene
     fidelity: str
-    time: float  # the current model time (s)
+    time: float
 
-    def advance(self, t_end: float, torque: Torque, stop: StopAt | None = None) -> Outputs:
-        """Integrate from the current time to t_end with the torque held constant (a float) or
-        following a TorqueProfile given at the current time (physics/torque.py). With `stop`, it is
-        asked after every internal step (its end time, the gap before and after it) and the advance
-        ends there when it answers True: the model's time is then that step's end (stepping.py).
+    def advance(self, t_end: float, torque: Torque = 0.0, stop: StopAt | None = None) -> Outputs:
+        """Integrate from the current time to the absolute time `t_end`.
 
-        Raises StepFailed (state unchanged) when the step cannot be completed and
-        ValueError for a bad argument (state unchanged)."""
+        Parameters
+        ----------
+        t_end : float
+            The time to reach (s): absolute, as an FMU's doStep reaches t + h, so that a sequence of
+            advances never accumulates round-off in the model's time; it must lie after `time`.
+        torque : float or TorqueProfile, default 0.0
+            The drive torque at the hinge (N.m, counter-clockwise positive): a float is held constant
+            over the advance; a TorqueProfile is a polynomial in the time since the advance's start
+            (FMI input interpolation, physics/torque.py).
+        stop : callable, optional
+            Asked after every internal step with (its end time, the gap before it, the gap after it);
+            the advance ends there when it answers True (an event an FMI 3.0 master stops at) and the
+            model's time is then that step's end.
+
+        Returns
+        -------
+        Outputs
+            The outputs at the new time, with the summary of this advance (solver_substeps, gap_min,
+            contact_force_max, contact_impulse).
+
+        Raises
+        ------
+        StepFailed
+            The advance cannot be completed; the state is as before the call, so that a master can
+            retry (a shorter interval helps when `StepFailed.shorter_step_helps`).
+        ValueError
+            `t_end` not after `time`, or a torque that is not finite; the state is unchanged.
+        """
 
     def output_derivatives(self, torque: TorqueProfile) -> OutputDerivatives:
-        """The first and second time derivatives of the continuous outputs at the current state,
-        with the torque following `torque` from now on (physics/output_rates.py)."""
+        """The first and second time derivatives of the continuous outputs at the current state, for a
+        master that extrapolates them over its next step (physics/output_rates.py).
+
+        Parameters
+        ----------
+        torque : TorqueProfile
+            The torque from now on: the derivatives depend on it through the acceleration.
+
+        Returns
+        -------
+        OutputDerivatives
+            The derivatives of each of CONTINUOUS_OUTPUTS; the state is unchanged.
+
+        Raises
+        ------
+        StepFailed
+            A fidelity that probes by advancing could not (its state is restored).
+        """
 
     def outputs(self) -> Outputs:
-        """The outputs at the current time."""
+        """The outputs at the current time, as the last advance (or the start) left them.
+
+        Returns
+        -------
+        Outputs
+            The object the last advance returned (each advance returns a new one).
+        """
 
     def get_state(self) -> ModelState:
-        """A deep copy of the full state."""
+        """The full state, for a rollback (`set_state`) or for serialising (`ModelState.to_bytes`).
+
+        Returns
+        -------
+        ModelState
+            A deep copy: later advances do not change it.
+        """
 
     def set_state(self, state: ModelState) -> None:
-        """Restore a state taken from a model built with the same scene."""
+        """Restore a state taken with `get_state`; the next advance continues bit for bit as after it.
+
+        Parameters
+        ----------
+        state : ModelState
+            Taken from a model of the same fidelity built from the same scene.
+
+        Raises
+        ------
+        ValueError
+            A state of another fidelity, or one whose arrays do not fit this model.
+        """
 
     def fields(self) -> list[BodyField]:
-        """Nodal fields of the current state, the pendulum first (then the meshed wall, if any)."""
+        """The nodal fields of the current state, for field output (ParaView).
+
+        Returns
+        -------
+        list of BodyField
+            The pendulum first, then the meshed wall if there is one.
+        """
+
+
+def protocol_doc(method: Callable[..., Any]) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """A decorator that gives a fidelity's method the protocol method's docstring, its own (what this
+    fidelity does) as the Notes: help(model.advance) then says what every model's advance takes."""
+
+    def decorate(implementation: Callable[..., Any]) -> Callable[..., Any]:
+        own = inspect.cleandoc(implementation.__doc__ or "")
+        notes = f"\n\nNotes\n-----\n{own}" if own else ""
+        implementation.__doc__ = inspect.cleandoc(method.__doc__ or "") + notes
+        return implementation
+
+    return decorate
 
 
 def check_advance_args(time: float, t_end: float, torque: Torque) -> None:

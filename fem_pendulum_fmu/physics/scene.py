@@ -114,7 +114,23 @@ class Scene:
     block: WallBlock = field(default_factory=WallBlock)
 
     def with_values(self, values: Mapping[str, Any]) -> Scene:
-        """A copy with values given by dotted names, e.g. {"pendulum.E": 1e6}."""
+        """A copy with some parameters changed (the scene is frozen: a copy is the way to change it).
+
+        Parameters
+        ----------
+        values : mapping
+            Parameter values by their FMU names, e.g. ``{"pendulum.E": 1e6, "model.fidelity": "rigid"}``.
+
+        Returns
+        -------
+        Scene
+            Not validated: `problems`, `validate` or `create` check it.
+
+        Raises
+        ------
+        KeyError
+            A name that is not a parameter.
+        """
         return replace_path(self, values)
 
 
@@ -260,8 +276,22 @@ def _interval(lo: float, hi: float, lo_in: bool, hi_in: bool) -> str:
 
 
 def validate(scene: Scene) -> Scene:
-    """Raise one ValueError listing every bad parameter (`problems`), else return the scene with
-    model.order resolved (element_order): every model is built from what this returns."""
+    """The scene every model is built from, once its parameters are checked.
+
+    Parameters
+    ----------
+    scene : Scene
+
+    Returns
+    -------
+    Scene
+        `scene` with model.order 0 (auto) resolved to the order its material needs (`element_order`).
+
+    Raises
+    ------
+    ValueError
+        One error listing every bad parameter (`problems`), so that one try shows them all.
+    """
     found = problems(scene)
     if found:
         raise ValueError("; ".join(found) if len(found) == 1 else f"{len(found)} bad parameters: " + "; ".join(found))
@@ -269,8 +299,18 @@ def validate(scene: Scene) -> Scene:
 
 
 def problems(scene: Scene) -> list[str]:
-    """Every bad parameter of `scene`, each a sentence naming it, its value and what is allowed
-    (empty for a good scene). The memory estimate is checked only once the rest is good."""
+    """Every bad parameter of `scene`, without raising (for a user interface that lists them).
+
+    Parameters
+    ----------
+    scene : Scene
+
+    Returns
+    -------
+    list of str
+        One sentence per bad parameter naming it, its value and what is allowed; empty for a good scene.
+        The memory estimate of the mesh is checked only once the rest is good (it needs their values).
+    """
     found = _range_problems(scene) + _choice_problems(scene)
     if found:
         return found

@@ -33,8 +33,10 @@ from ..protocol import (
     ModelState,
     OutputDerivatives,
     Outputs,
+    PendulumModel,
     StopAt,
     check_advance_args,
+    protocol_doc,
     restore_advance_summary,
 )
 from ..scene import Scene, refuse_deformable_wall, validate
@@ -203,8 +205,9 @@ class RigidModel(SteppedModel[RigidState]):
         return pen.fx, pen.fy, pen.d_energy
 
     # ------------------------------------------------------------- advance
-    def advance(self, t_end: float, torque: Torque, stop: StopAt | None = None) -> Outputs:
-        """The protocol's advance: one free-flight step taken directly when it provably stays off the
+    @protocol_doc(PendulumModel.advance)
+    def advance(self, t_end: float, torque: Torque = 0.0, stop: StopAt | None = None) -> Outputs:
+        """One free-flight step taken directly when it provably stays off the
         block (`_free_step`, with the profile's mean torque over it; `stop` is told of it and cannot end
         it earlier), else the shared stepper (stepping.py)."""
         t_end = float(t_end)
