@@ -24,7 +24,7 @@ def resolve_fidelity(scene: Scene) -> str:
     from .fidelity_rule import choose
 
     choice = choose(scene)
-    LOG.info("model.fidelity = auto picked %s: %s", choice.fidelity, choice.reason)
+    LOG.info("model.fidelity = auto picks %s: %s", choice.fidelity, choice.reason)
     return choice.fidelity
 
 
@@ -57,7 +57,7 @@ def create(scene: Scene) -> PendulumModel:
     """
     with SHARED_STATE:
         if scene.model.order == AUTO_ORDER:
-            LOG.info("model.order = %d (auto) picked %d for this material", AUTO_ORDER, element_order(scene))
+            LOG.info("model.order = %d (auto) picks %d for this material", AUTO_ORDER, element_order(scene))
         scene = validate(scene)
         fidelity = resolve_fidelity(scene)
         if fidelity not in AVAILABLE:

@@ -46,10 +46,17 @@ class RenamedKeys(dict[str, Any]):
 
     def __missing__(self, key: str) -> Any:
         new = self.old_names.get(key)
-        if new is None or new not in self:
+        if new is None or not dict.__contains__(self, new):
             raise KeyError(key)
         warn_renamed(key, new, self.what)
         return self[new]
+
+    def __contains__(self, key: object) -> bool:
+        # `key in d` as d[key] answers it (argparse's choices ask so): an old name too, without a warning
+        return dict.__contains__(self, key) or dict.__contains__(self, self.old_names.get(str(key), key))
+
+    def get(self, key: str, default: Any = None) -> Any:
+        return self[key] if key in self else default
 
 
 def dotted_keywords(values: Mapping[str, Any], known: Iterable[str], stacklevel: int = 3) -> dict[str, Any]:

@@ -38,6 +38,11 @@ class StepFailed(RuntimeError):
         self.shorter_step_helps = shorter_step_helps
 
 
+NO_SHORTER_STEP = "a shorter communication step cannot help"
+"""What the FMU says of a discarded step whose StepFailed.shorter_step_helps is False (fmi/slave.py); a
+master that reads it does not advise a shorter step (masters/failures.py what_to_try)."""
+
+
 @dataclass
 class Outputs:
     """Everything a model reports after an advance (SI units).

@@ -329,17 +329,17 @@ def _range_problems(scene: Scene) -> list[str]:
             ok = (value >= lo if lo_in else value > lo) and (value <= hi if hi_in else value < hi)
         if not ok:
             found.append(
-                f"parameter {name} = {value!r} is out of range: allowed is a finite number in "
+                f"parameter {name} = {value!r} is not allowed: it must be a finite number in "
                 f"{_interval(lo, hi, lo_in, hi_in)}"
             )
     for name, (ilo, ihi) in _INT_RANGES.items():
         value = get_path(scene, name)
         if isinstance(value, bool) or not isinstance(value, int) or not ilo <= value <= ihi:
-            found.append(f"parameter {name} = {value!r} is out of range: allowed is an integer in [{ilo}, {ihi}]")
+            found.append(f"parameter {name} = {value!r} is not allowed: it must be an integer in [{ilo}, {ihi}]")
     order = scene.model.order
     if isinstance(order, bool) or not isinstance(order, int) or not (order == AUTO_ORDER or 2 <= order <= 5):
         found.append(
-            f"parameter model.order = {order!r} is out of range: allowed is an integer in [2, 5], "
+            f"parameter model.order = {order!r} is not allowed: it must be an integer in [2, 5], "
             f"or {AUTO_ORDER} (auto: {SOFT_ORDER} for a soft pendulum, E / rho <= {SOFT_LIMIT:g} m^2/s^2, "
             f"else {STIFF_ORDER})"
         )
@@ -354,7 +354,9 @@ def _choice_problems(scene: Scene) -> list[str]:
         if value not in choices:
             found.append(f"parameter {name} = {value!r} is not allowed: choose one of {', '.join(choices)}")
     if not isinstance(scene.model.compute_stress, bool):
-        found.append(f"parameter model.compute_stress = {scene.model.compute_stress!r}: allowed is true or false")
+        found.append(
+            f"parameter model.compute_stress = {scene.model.compute_stress!r} is not allowed: it must be true or false"
+        )
     if scene.solver.scheme != "energy_momentum" and scene.model.fidelity != "fem":
         found.append(
             f"parameter solver.scheme = {scene.solver.scheme!r} is an option of the fem fidelity only: "
@@ -374,8 +376,8 @@ def _memory_problem(scene: Scene) -> str | None:
     return (
         f"parameters model.mesh_size = {scene.model.mesh_size!r} with model.order = {scene.model.order} "
         f"would need about {need / 2**30:.3g} GiB (estimate), more than this machine's "
-        f"{have / 2**30:.3g} GiB: allowed are mesh sizes down to about "
-        f"{smallest_mesh_size(scene, have):.2g} m at this order"
+        f"{have / 2**30:.3g} GiB: model.mesh_size must be about {smallest_mesh_size(scene, have):.2g} m or more "
+        "at this order"
     )
 
 
