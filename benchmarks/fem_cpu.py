@@ -93,7 +93,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--t-end", type=float, default=1.0, help="simulated seconds per run")
     parser.add_argument("--repeat", type=int, default=3, help="runs; the one with the least CPU time is printed")
-    parser.add_argument("--preset", choices=sorted(PRESETS), default="steel", help="the scene")
+    parser.add_argument("--preset", choices=PRESETS, default="steel", help="the scene")
     parser.add_argument("--deformable-wall", action="store_true", help="the meshed (deformable) wall block")
     parser.add_argument("--mesh-size", type=float, default=0.0, help="model.mesh_size (0: the scene's default)")
     parser.add_argument("--profile", type=int, default=0, help="run once under cProfile, print this many entries")

@@ -83,7 +83,8 @@ def main(argv: list[str] | None = None) -> None:
     )
     print("|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
-        for preset in args.scenes.split(","):
+        for named in args.scenes.split(","):
+            preset = next(k for k, f in PRESETS.items() if f is PRESETS[named])  # an old name: its new one
             results = {}
             for fidelity in ("fem", "reduced", "rigid"):
                 repeat = args.repeat_fem if fidelity == "fem" else args.repeat

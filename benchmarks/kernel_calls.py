@@ -35,7 +35,7 @@ def best_per_call(call, calls: int, repeat: int) -> float:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mesh-size", type=float, default=0.0, help="model.mesh_size (0: the scene's default)")
-    parser.add_argument("--preset", choices=sorted(PRESETS), default="steel", help="the scene")
+    parser.add_argument("--preset", choices=PRESETS, default="steel", help="the scene")
     parser.add_argument("--calls", type=int, default=300, help="calls per timed loop")
     parser.add_argument("--repeat", type=int, default=5, help="timed loops; the best is printed")
     args = parser.parse_args()

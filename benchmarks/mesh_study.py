@@ -49,7 +49,7 @@ def run(preset: str, size: float, order: int, t_end: float) -> dict:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--t-end", type=float, default=0.6)
-    p.add_argument("--preset", default="steel", choices=sorted(PRESETS))
+    p.add_argument("--preset", default="steel", choices=PRESETS)
     args = p.parse_args()
     results = {}
     for case in CASES:

@@ -34,7 +34,7 @@ def trace(model, t_end: float) -> tuple[np.ndarray, float, int]:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--preset", default="rubber", choices=sorted(PRESETS))
+    p.add_argument("--preset", default="rubber", choices=PRESETS)
     p.add_argument("--t-end", type=float, default=0.8)
     p.add_argument("--modes", default="6,12,24")
     args = p.parse_args()
