@@ -2,7 +2,7 @@
 
     python benchmarks/contact_steps.py [--counts 58 29 16 12 10 8 6 4 3 2] [--t-end 2.0] [--repeat 3]
 
-The default fem model on the steel scene (stiff(), rigid wall, released at 20
+The default fem model on the steel scene (steel(), rigid wall, released at 20
 degrees, no torque), advanced in 1 ms communication steps as a master drives
 it, once for each forced count of internal steps per contact duration (the
 step control's `contact_steps` replaced by the count; the count 0 is the
@@ -40,7 +40,7 @@ from speed_vs_error import early_window, load_reference
 
 from fem_pendulum_fmu.physics.fem.model import FemModel
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
-from fem_pendulum_fmu.physics.scene import stiff
+from fem_pendulum_fmu.physics.scene import steel
 from fem_pendulum_fmu.physics.stepping import StepControl
 
 FIRST_IMPACT = slice(200, 300)  # the communication steps around the first impact (at 0.240 s)
@@ -65,9 +65,9 @@ def forced(control: StepControl, count: int) -> StepControl:
 
 def run(count: int, t_end: float) -> dict:
     """One run of the steel scene with `count` steps per contact; its series and figures."""
-    model = FemModel(stiff())
+    model = FemModel(steel())
     model.control = forced(model.control, count)
-    swing, e0 = swing_energy(model.scene), model.outputs().total
+    swing, e0 = swing_energy(model.scene), model.outputs().energy_total
     theta, latency, outputs = [model.outputs().theta], [], []
     iterations_before = 0
     impact_steps, impact_iterations = [], []
@@ -78,8 +78,8 @@ def run(count: int, t_end: float) -> dict:
         theta.append(o.theta)
         outputs.append(o)
         its = model.newton.counts.iterations
-        if o.substeps > 2:
-            impact_steps.append(o.substeps)
+        if o.solver_substeps > 2:
+            impact_steps.append(o.solver_substeps)
             impact_iterations.append(its - iterations_before)
         iterations_before = its
     lat = np.array(latency)
@@ -88,8 +88,8 @@ def run(count: int, t_end: float) -> dict:
     return {
         "theta": np.array(theta),
         "force": max(o.contact_force_max for o in first),
-        "penetration": -min(o.min_gap for o in first),
-        "energy": max(abs(o.total - o.torque_work - e0) for o in outputs) / swing,
+        "penetration": -min(o.gap_min for o in first),
+        "energy": max(abs(o.energy_total - o.energy_torque_work - e0) for o in outputs) / swing,
         "impact_steps": impact_steps,
         "impact_iterations": impact_iterations,
         "median_ms": 1e3 * median,

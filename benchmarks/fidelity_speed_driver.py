@@ -2,8 +2,8 @@
 
     python benchmarks/fidelity_speed_driver.py FMU PRESET FIDELITY T_END OUT_NPY
 
-fmpy's FMU2Slave: model.fidelity = FIDELITY (its number), the compliant preset's parameters when PRESET is
-"compliant", then 1 ms steps to T_END (torque 0). Saves theta, gap, energy.total, energy.torque_work and
+fmpy's FMU2Slave: model.fidelity = FIDELITY (its number), the rubber preset's parameters when PRESET is
+"rubber", then 1 ms steps to T_END (torque 0). Saves theta, gap, energy.total, energy.torque_work and
 solver.substeps after initialisation and every step to OUT_NPY; prints the loop's wall and CPU time as JSON.
 """
 
@@ -30,7 +30,7 @@ def main(argv: list[str]) -> None:
     s.setupExperiment(startTime=0.0)
     s.enterInitializationMode()
     s.setInteger([vr["model.fidelity"]], [fidelity])
-    if preset == "compliant":
+    if preset == "rubber":
         s.setReal(
             [vr["pendulum.E"], vr["pendulum.nu"], vr["pendulum.rho"], vr["contact.stiffness"]], [1e6, 0.45, 1000.0, 5e9]
         )

@@ -2,7 +2,7 @@
 
     python benchmarks/fmu_overhead.py [--fmu dist/FemPendulum.fmu] [--steps 300]
 
-Both paths run the same scene (stiff, default mesh, released at 20 degrees)
+Both paths run the same scene (steel, default mesh, released at 20 degrees)
 for the same 1 ms communication steps in free flight; the difference per step
 (best of --repeat runs each way) is the overhead of fmpy + pythonfmu + the
 slave (set torque, doStep, get all outputs). Start-up is instantiate +
@@ -55,9 +55,9 @@ def fmu_steps(fmu: str, n: int, fidelity: int) -> None:
 def direct_steps(n: int, fidelity: str) -> None:
     """(A child, --direct.) Print the time per step of n steps of the model called directly."""
     from fem_pendulum_fmu.physics.fidelity import create
-    from fem_pendulum_fmu.physics.scene import stiff
+    from fem_pendulum_fmu.physics.scene import steel
 
-    m = create(stiff(**{"model.fidelity": fidelity}))
+    m = create(steel(**{"model.fidelity": fidelity}))
     t0 = time.perf_counter()
     for k in range(n):
         m.advance((k + 1) * 1e-3, 0.0)

@@ -23,10 +23,10 @@ import numpy as np
 from ngsolve import CF, GridFunction, VectorH1, x, y
 
 from fem_pendulum_fmu.physics import geometry
-from fem_pendulum_fmu.physics.scene import stiff, validate
+from fem_pendulum_fmu.physics.scene import steel, validate
 from fem_pendulum_fmu.physics.shared_state import SHARED_STATE
 
-SCENE = validate(stiff(**{"model.fidelity": "fem"}))
+SCENE = validate(steel(**{"model.fidelity": "fem"}))
 ROTATION = CF(((np.cos(0.2) - 1) * x - np.sin(0.2) * y, np.sin(0.2) * x + (np.cos(0.2) - 1) * y))
 
 

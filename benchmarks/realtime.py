@@ -177,12 +177,12 @@ def accuracy(series: dict, reference: str | None) -> tuple[float, float]:
     from speed_vs_error import early_window, load_reference
 
     from fem_pendulum_fmu.physics.mass_properties import swing_energy
-    from fem_pendulum_fmu.physics.scene import stiff
+    from fem_pendulum_fmu.physics.scene import steel
 
     if not series:
         return float("nan"), float("nan")
     total = np.array(series["energy.total"]) - np.array(series["energy.torque_work"])
-    scene = stiff(**(RUBBER if reference == "rubber" else {}))
+    scene = steel(**(RUBBER if reference == "rubber" else {}))
     energy = float(np.max(np.abs(total - total[0]))) / swing_energy(scene)
     ref = load_reference(reference) if reference else None
     if ref is None:

@@ -8,7 +8,7 @@ fem_pendulum_fmu/fmi/interface.py), whose doStep only adds torque x step to
 one output. It is built into a temporary folder with the same binary
 (fmi/shim/) as FemPendulum, so both go through the same native calls. Both
 FMUs are then driven alike by fmpy's FMU2Slave, each run in a fresh process:
-the stiff scene released at theta0 (20 degrees), 1 ms communication steps,
+the steel scene released at theta0 (20 degrees), 1 ms communication steps,
 every step set the torque (0), doStep, getReal of all Real outputs, for
 --stop-time seconds. Printed: CPU time (time.process_time, all the process's
 threads), the stepping thread's CPU time (time.thread_time: the process may

@@ -32,10 +32,10 @@ ROOT = Path(__file__).resolve().parents[1]
 def memory(h_text: str, p_text: str) -> None:
     os.environ["FEM_PENDULUM_CACHE"] = "off"
     from fem_pendulum_fmu.physics.fem.model import FemModel
-    from fem_pendulum_fmu.physics.scene import estimated_unknowns, mesh_memory_estimate, stiff
+    from fem_pendulum_fmu.physics.scene import estimated_unknowns, mesh_memory_estimate, steel
 
     h, p = float(h_text), int(p_text)
-    scene = stiff(**{"model.mesh_size": h, "model.order": p, "theta0": 0.05})
+    scene = steel(**{"model.mesh_size": h, "model.order": p, "theta0": 0.05})
     r0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     t0 = time.perf_counter()
     m = FemModel(scene)
@@ -47,10 +47,10 @@ def memory(h_text: str, p_text: str) -> None:
 
 def worst(model, schedule):
     """The worst |E - E0 - W| over the schedule [(t, torque), ...], the last outputs and the seconds taken."""
-    e0, w, t0 = model.outputs().total, 0.0, time.perf_counter()
+    e0, w, t0 = model.outputs().energy_total, 0.0, time.perf_counter()
     for t, torque in schedule:
         out = model.advance(t, torque)
-        w = max(w, abs(out.total - e0 - out.torque_work))
+        w = max(w, abs(out.energy_total - e0 - out.energy_torque_work))
     return w, out, time.perf_counter() - t0
 
 
@@ -61,19 +61,19 @@ def gauss(what: str, n: int) -> None:
     original = material.averaged_pk2_stress
     material.averaged_pk2_stress = lambda C0, C1, lame_lambda, mu, points: original(C0, C1, lame_lambda, mu, n)
     from fem_pendulum_fmu.physics.fidelity import create
-    from fem_pendulum_fmu.physics.scene import compliant, stiff
+    from fem_pendulum_fmu.physics.scene import rubber, steel
 
     if what == "gauss-violent":  # steel, +-50 N.m square wave (0.15 s each way), 0.18 s: the back-face impact
-        m = create(stiff(**{"model.mesh_size": 0.06, "theta0": 0.0}))
+        m = create(steel(**{"model.mesh_size": 0.06, "theta0": 0.0}))
         sched = [(k * 1e-3, 50.0 if ((k - 1) // 150) % 2 == 0 else -50.0) for k in range(1, 181)]
         w, out, secs = worst(m, sched)
-        print(json.dumps({"case": what, "points": n, "worst_J": w, "work_J": out.torque_work, "s": secs}))
+        print(json.dumps({"case": what, "points": n, "worst_J": w, "work_J": out.energy_torque_work, "s": secs}))
     elif what == "gauss-rubber":  # rubber, 2 N.m for 1 ms, then 39 ms free
-        m = create(compliant(**{"model.mesh_size": 0.06, "theta0": 0.0}))
+        m = create(rubber(**{"model.mesh_size": 0.06, "theta0": 0.0}))
         w, out, secs = worst(m, [(k * 1e-3, 2.0 if k == 1 else 0.0) for k in range(1, 41)])
-        print(json.dumps({"case": what, "points": n, "worst_J": w, "work_J": out.torque_work, "s": secs}))
+        print(json.dumps({"case": what, "points": n, "worst_J": w, "work_J": out.energy_torque_work, "s": secs}))
     elif what == "gauss-default":  # the default scene released at 20 degrees, 0.5 s in 1 ms steps
-        m = create(stiff())
+        m = create(steel())
         w, out, secs = worst(m, [(k * 1e-3, 0.0) for k in range(1, 501)])
         print(json.dumps({"case": what, "points": n, "worst_J": w, "s": secs}))
 
@@ -85,7 +85,7 @@ def quadrature(variant: str) -> None:
     import fem_pendulum_fmu.physics.fem.model as fem
     import fem_pendulum_fmu.physics.fem.outputs as fem_outputs
     from fem_pendulum_fmu.physics.fidelity import StepFailed, create
-    from fem_pendulum_fmu.physics.scene import compliant
+    from fem_pendulum_fmu.physics.scene import rubber
 
     what = "quadrature"
     integrate = fem_outputs.Integrate
@@ -100,20 +100,20 @@ def quadrature(variant: str) -> None:
         return integrate(cf, mesh, *args, **kwargs)
 
     fem_outputs.Integrate = patched  # the torque work's and the strain energy's integrals
-    m = create(compliant(**{"model.mesh_size": 0.06, "theta0": 0.0}))
-    e0 = m.outputs().total
+    m = create(rubber(**{"model.mesh_size": 0.06, "theta0": 0.0}))
+    e0 = m.outputs().energy_total
     try:
         for j in range(1, 31):
             out = m.advance(j * 1e-4, 2.0)
             if j in (20, 23, 30):
-                error = out.total - e0 - out.torque_work
+                error = out.energy_total - e0 - out.energy_torque_work
                 print(
                     json.dumps(
                         {
                             "case": what,
                             "variant": variant,
                             "t_ms": j / 10,
-                            "work_J": out.torque_work,
+                            "work_J": out.energy_torque_work,
                             "energy_error_J": error,
                             "min_det_F": m.min_det_F(),
                         }
@@ -126,19 +126,19 @@ def quadrature(variant: str) -> None:
 def resting_tolerance() -> None:
     """-5 N.m from rest touching the wall, 30 ms in 0.1 ms steps, per solver.tolerance."""
     from fem_pendulum_fmu.physics.fidelity import create
-    from fem_pendulum_fmu.physics.scene import stiff
+    from fem_pendulum_fmu.physics.scene import steel
 
     for fidelity in ("rigid", "fem"):
         for tol in (1e-3, 1e-2, 1e-1):
             m = create(
-                stiff(**{"model.fidelity": fidelity, "model.mesh_size": 0.06, "theta0": 0.0, "solver.tolerance": tol})
+                steel(**{"model.fidelity": fidelity, "model.mesh_size": 0.06, "theta0": 0.0, "solver.tolerance": tol})
             )
-            e0, forces, steps, worst, t0 = m.outputs().total, [], 0, 0.0, time.perf_counter()
+            e0, forces, steps, worst, t0 = m.outputs().energy_total, [], 0, 0.0, time.perf_counter()
             for k in range(1, 301):
                 out = m.advance(k * 1e-4, -5.0)
                 forces.append(out.contact_force)
-                steps += out.substeps
-                worst = max(worst, abs(out.total - e0 - out.torque_work))
+                steps += out.solver_substeps
+                worst = max(worst, abs(out.energy_total - e0 - out.energy_torque_work))
             result = {
                 "case": "resting-tolerance",
                 "fidelity": fidelity,
@@ -155,14 +155,14 @@ def resting_tolerance() -> None:
 def penetration() -> None:
     """Rigid, +-50 N.m square waves, 1 s."""
     from fem_pendulum_fmu.physics.fidelity import create
-    from fem_pendulum_fmu.physics.scene import stiff
+    from fem_pendulum_fmu.physics.scene import steel
 
     for half in (0.05, 0.1, 0.15):
-        m = create(stiff(**{"model.fidelity": "rigid", "theta0": 0.0}))
+        m = create(steel(**{"model.fidelity": "rigid", "theta0": 0.0}))
         pen, wmax = 0.0, 0.0
         for k in range(1, 1001):
             out = m.advance(k * 1e-3, 50.0 if ((k - 1) * 1e-3 + 1e-9) // half % 2 == 0 else -50.0)
-            pen, wmax = max(pen, -out.min_gap), max(wmax, abs(out.omega))
+            pen, wmax = max(pen, -out.gap_min), max(wmax, abs(out.omega))
         result = {
             "case": "penetration",
             "half_period_s": half,
@@ -176,11 +176,11 @@ def penetration() -> None:
 def sequence() -> None:
     """fem, default scene, 1 s: 1 ms against 0.1 s communication steps, and against max_step 0.5 ms."""
     from fem_pendulum_fmu.physics.fidelity import create
-    from fem_pendulum_fmu.physics.scene import stiff
+    from fem_pendulum_fmu.physics.scene import steel
 
     runs = {}
     for label, h, ms in (("1ms", 1e-3, 2e-3), ("0.1s", 0.1, 2e-3), ("1ms-max_step-0.5ms", 1e-3, 5e-4)):
-        m = create(stiff(**{"model.mesh_size": 0.06, "solver.max_step": ms}))
+        m = create(steel(**{"model.mesh_size": 0.06, "solver.max_step": ms}))
         runs[label] = {round(k * h, 6): m.advance(k * h, 0.0).theta for k in range(1, int(round(1.0 / h)) + 1)}
     for label in ("0.1s", "1ms-max_step-0.5ms"):
         d = {t: abs(runs[label][t] - runs["1ms"][t]) for t in runs["0.1s"]}

@@ -65,15 +65,13 @@ class SceneCase:
 
 
 SCENES = (
-    SceneCase("steel", "steel (stiff preset) released at 20 deg, rigid wall, no torque", 2.0, "stiff"),
-    SceneCase(
-        "rubber", "rubber (compliant preset, order 3) released at 20 deg, rigid wall, no torque", 2.0, "compliant"
-    ),
+    SceneCase("steel", "steel preset released at 20 deg, rigid wall, no torque", 2.0, "steel"),
+    SceneCase("rubber", "rubber preset (order 3) released at 20 deg, rigid wall, no torque", 2.0, "rubber"),
     SceneCase(
         "controller",
         "PID controller loop of fem-pendulum-control (steel, from rest at 0 deg, 20-deg sine set-point, 15 N.m drive)",
         2.0,
-        "stiff",
+        "steel",
         {"theta0": 0.0},
         loop=True,
     ),
@@ -81,7 +79,7 @@ SCENES = (
         "deformable_wall",
         "steel released at 20 deg against the seed's meshed steel wall (wall.kind deformable, fem only)",
         0.5,
-        "stiff",
+        "steel",
         {"wall.kind": "deformable"},
     ),
 )

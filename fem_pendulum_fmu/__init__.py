@@ -3,9 +3,10 @@
 The physics (fem_pendulum_fmu/physics/) knows nothing of FMI; fem_pendulum_fmu/fmi/ wraps it into the
 FMU and fem_pendulum_fmu/masters/ drives FMUs. The public API of the physics is here, flat:
 
-    from fem_pendulum_fmu import create, compliant
-    model = create(compliant())
-    out = model.advance(0.5, torque=0.0)
+    from fem_pendulum_fmu import create, rubber
+    model = create(rubber())
+    out = model.advance(0.5)  # to the absolute time 0.5 s; torque 0 N.m unless given
+    out.energy_total  # the FMU's output energy.total: its names, '.' written '_'
 
 Its names load on first use (the command line and the FMU's start-up do not pay for numpy here).
 """
@@ -20,8 +21,10 @@ from .version import __version__
 _EXPORTS = {
     "create": "physics.fidelity",
     "Scene": "physics.scene",
-    "stiff": "physics.scene",
-    "compliant": "physics.scene",
+    "steel": "physics.scene",
+    "rubber": "physics.scene",
+    "stiff": "physics.scene",  # deprecated: steel
+    "compliant": "physics.scene",  # deprecated: rubber
     "PRESETS": "physics.scene",
     "problems": "physics.scene",
     "validate": "physics.scene",
@@ -44,17 +47,19 @@ __all__ = [
     "StepFailed",
     "TorqueProfile",
     "__version__",
-    "compliant",
     "create",
     "problems",
-    "stiff",
+    "rubber",
+    "steel",
     "validate",
 ]
 
 if TYPE_CHECKING:
     from .physics.fidelity import create
     from .physics.protocol import BodyField, ModelState, OutputDerivatives, Outputs, PendulumModel, StepFailed
-    from .physics.scene import PRESETS, Scene, compliant, problems, stiff, validate
+    from .physics.scene import PRESETS, Scene, problems, rubber, steel, validate
+    from .physics.scene import compliant as compliant  # deprecated: rubber
+    from .physics.scene import stiff as stiff  # deprecated: steel
     from .physics.torque import TorqueProfile
 
 

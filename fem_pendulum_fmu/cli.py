@@ -2,7 +2,8 @@
 
 Each subcommand is a thin call into the package: the FMU builder (fmi/builder.py
 and masters/pid), the open-loop, controller and sweep masters (masters/), the
-host environment and the interface table (fmi/).
+host environment and the interface table (fmi/). The help says what a user
+needs and names no file of the package (DESCRIPTION).
 """
 
 from __future__ import annotations
@@ -12,6 +13,16 @@ import sys
 from pathlib import Path
 
 from .version import __version__
+
+DESCRIPTION = """\
+The pendulum FMU and the masters that drive it: build the FMUs, run one with a
+torque profile (run), in a loop with a controller FMU (control) or over a grid
+or table of parameter values (sweep); print what a native host needs to load
+the FMU (host-env) and the FMU's variables (interface).
+
+Parameters, outputs and enumeration items are named as the FMU names them
+(pendulum.E, energy.total, model.fidelity=rigid): `fem-pendulum interface`
+lists them."""
 
 
 def build(args: argparse.Namespace) -> None:
@@ -37,7 +48,7 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
         "--output",
         type=Path,
         default=None,
-        help="where to write the FMU (default dist/FemPendulum.fmu; FMI 3.0: dist/FemPendulum3.fmu)",
+        help="where to write the FMU (default: dist/FemPendulum.fmu; FMI 3.0: dist/FemPendulum3.fmu)",
     )
     parser.add_argument(
         "--fmi-version",
@@ -64,7 +75,7 @@ def parser() -> argparse.ArgumentParser:
     from .masters.control import command as control
 
     top = argparse.ArgumentParser(
-        prog="fem-pendulum", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+        prog="fem-pendulum", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     top.add_argument("--version", action="version", version=f"fem_pendulum_fmu {__version__}")
     sub = top.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -96,7 +107,7 @@ def parser() -> argparse.ArgumentParser:
         ),
         (
             "interface",
-            "print the FMI interface declared in modelDescription.template.xml",
+            "print the FMU's variables: name, causality, type, unit and start value",
             interface.add_arguments,
             interface.command,
         ),

@@ -41,7 +41,7 @@ def fem_pendulum(*args: str, cwd: Path) -> subprocess.CompletedProcess:
         (["--torque", "missing.csv"], ["missing.csv", "No such file"]),
         (["--torque", "bad.csv"], ["bad.csv", "row 3", "column torque", "'abc'"]),
         (["--set", "pendulum.nu=0.5"], ["pendulum.nu = 0.5", "[0, 0.5)"]),
-        (["--set", "model.mesh_size=1e-5"], ["model.mesh_size = 1e-05", "GiB", "mesh sizes down to"]),
+        (["--set", "model.mesh_size=1e-5"], ["model.mesh_size = 1e-05", "GiB", "model.mesh_size must be about"]),
         (["--set", "no.such=1"], ["no.such", "not a variable"]),
         (["--out", "file.txt/run"], ["file.txt/run", "cannot write"]),
     ],

@@ -180,7 +180,7 @@ def test_wrong_arguments_are_type_errors_or_named():
         assert_loop(RUN, rms_error_below="0.1")  # type: ignore[arg-type]
     with pytest.raises(TypeError, match=r"^impacts_at_most True is not a number"):
         assert_loop(RUN, impacts_at_most=True)
-    with pytest.raises(UsageError, match=r"^energy_error_below nan is not allowed: give a number"):
+    with pytest.raises(UsageError, match=r"^energy_error_below nan is not allowed: it must be a number"):
         assert_loop(RUN, energy_error_below=math.nan)
     with pytest.raises(TypeError, match=r"^assert_loop takes a loop result \(with .metrics\) or its Metrics, not dict"):
         assert_loop({"rms_error": 0.1}, rms_error_below=1.0)

@@ -55,14 +55,14 @@ def test_a_function_controller_is_held_and_cannot_be_asked_for_more(fmus):
     refused = r"hold order 1 is not possible: the function .*law gives values, not their derivatives \(order 0\)"
     with pytest.raises(UsageError, match=refused):
         closed_loop(law, stop_time=0.05, fidelity="rigid", fmu=fmus[0], hold=1)
-    with pytest.raises(UsageError, match=r"hold 3 is not allowed: use auto, 0 \(hold\), 1 \(ramps\) or 2"):
+    with pytest.raises(UsageError, match=r"hold 3 is not allowed: choose one of auto, 0 \(hold\), 1 \(ramps\), 2"):
         closed_loop(law, stop_time=0.05, fidelity="rigid", fmu=fmus[0], hold=3)
 
 
 @pytest.mark.parametrize(
     ("hold", "message"),
     [
-        ("3", "control: error: --hold '3' is not allowed: use auto, 0 (hold), 1 (ramps) or 2 (parabolas)"),
+        ("3", "control: error: --hold '3' is not allowed: choose one of auto, 0 (hold), 1 (ramps), 2 (parabolas)"),
         ("2", "control: error: hold order 2 is not possible: PdControllerUnderTest.fmu takes 0 at most"),
     ],
 )

@@ -291,9 +291,11 @@ def test_bad_tables_and_arguments_are_named():
         metrics_of(loop_table(0.1).drop(columns=["demand", "energy.total"]))
     with pytest.raises(UsageError, match=r"^the loop's table has no rows"):
         metrics_of(loop_table(0.1).iloc[:0])
-    with pytest.raises(UsageError, match=r"^step_size 0.0 is not allowed: give a finite step > 0 \(s\)"):
+    with pytest.raises(UsageError, match=r"^step_size 0.0 is not allowed: it must be a finite step > 0 \(s\)"):
         loop_metrics(loop_table(0.1), step_size=0.0, drive_limit=15.0)
-    with pytest.raises(UsageError, match=r"^drive_limit nan is not allowed: give a torque > 0 \(N.m\), or math.inf"):
+    with pytest.raises(
+        UsageError, match=r"^drive_limit nan is not allowed: it must be a torque > 0 \(N.m\), or math.inf"
+    ):
         loop_metrics(loop_table(0.1), step_size=DT, drive_limit=math.nan)
     one_row = metrics_of(loop_table(0.0, setpoint=0.1))
     assert one_row["rms_error"] == pytest.approx(0.1) and one_row["time_at_drive_limit"] == 0.0

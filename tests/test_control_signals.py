@@ -230,9 +230,9 @@ def test_a_function_that_gives_no_finite_number_is_named_with_the_time():
 
 
 def test_a_signal_built_in_code_is_checked():
-    with pytest.raises(UsageError, match=r"Signal kind 'square' is not allowed: use one of constant, step, sine"):
+    with pytest.raises(UsageError, match=r"Signal kind 'square' is not allowed: choose one of constant, step, sine"):
         Signal("square", "angle")  # type: ignore[arg-type]
-    with pytest.raises(UsageError, match=r"Signal quantity 'force' is not allowed: use one of angle, torque"):
+    with pytest.raises(UsageError, match=r"Signal quantity 'force' is not allowed: choose one of angle, torque"):
         Signal("step", "force")  # type: ignore[arg-type]
     with pytest.raises(UsageError, match=r"Signal table: 2 times and 1 values"):
         Signal("table", "angle", times=(0.0, 1.0), values=(0.0,))

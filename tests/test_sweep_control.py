@@ -140,7 +140,7 @@ def test_failed_loop_samples_are_error_rows_and_the_rest_run(fmus, tmp_path, cap
     assert "solver.max_substeps = 1" in stopped["message"]
     assert len(store.read_series(out, stopped["sample_id"])) == 1  # the table up to where it stopped: t = 0
     assert invalid["message"] == (
-        "invalid parameters: parameter pendulum.E = -1.0 is out of range: allowed is a finite number in (0, inf)"
+        "invalid parameters: parameter pendulum.E = -1.0 is not allowed: it must be a finite number in (0, inf)"
     )
     assert stopped[list(METRIC_NAMES)].isna().all() and invalid[list(METRIC_NAMES)].isna().all()
     assert ok["status"] == "ok"

@@ -8,11 +8,11 @@ import sys
 
 import fem_pendulum_fmu.physics.core._femp_core as core
 from fem_pendulum_fmu.physics.fidelity import create
-from fem_pendulum_fmu.physics.scene import stiff
+from fem_pendulum_fmu.physics.scene import steel
 
 
 def final_theta(fidelity: str, steps: int) -> float:
-    model = create(stiff(**{"model.fidelity": fidelity, "theta0": 0.2}))
+    model = create(steel(**{"model.fidelity": fidelity, "theta0": 0.2}))
     for k in range(1, steps + 1):
         model.advance(k * 1e-3, torque=-1.0)
     return model.outputs().theta

@@ -19,6 +19,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Literal, get_args
 
+from ..physics.names import python_name
 from ..physics.scene import Scene
 from .fmi_names import FMI3_TYPES, FmiVersion, fmi_text
 
@@ -27,24 +28,26 @@ TEMPLATE_NAME = "modelDescription.template.xml"
 ENUM_ALIASES = {"wall.kind_index": "wall.kind", "model.fidelity_index": "model.fidelity"}
 # parameters of the FMU's field output (fmi/vtk_output.py), not of the physics: no Scene field takes them
 FMU_ONLY_PARAMETERS = ("output.vtk_folder", "output.vtk_interval")
-# FMI output name -> field of physics.protocol.Outputs
-OUTPUT_FIELDS = {
-    "theta": "theta",
-    "omega": "omega",
-    "gap": "gap",
-    "contact_force": "contact_force",
-    "energy.kinetic": "kinetic",
-    "energy.potential": "potential",
-    "energy.strain": "strain",
-    "energy.contact": "contact",
-    "energy.total": "total",
-    "energy.torque_work": "torque_work",
-    "stress.von_mises_max": "von_mises_max",
-    "solver.substeps": "substeps",
-    "gap_min": "min_gap",
-    "contact_force_max": "contact_force_max",
-    "contact_impulse": "contact_impulse",
-}
+# the FMU's outputs, in the template's order
+OUTPUT_NAMES = (
+    "theta",
+    "omega",
+    "gap",
+    "contact_force",
+    "energy.kinetic",
+    "energy.potential",
+    "energy.strain",
+    "energy.contact",
+    "energy.total",
+    "energy.torque_work",
+    "stress.von_mises_max",
+    "solver.substeps",
+    "gap_min",
+    "contact_force_max",
+    "contact_impulse",
+)
+# FMI output name -> field of physics.protocol.Outputs: the same name, '.' written '_' (physics/names.py)
+OUTPUT_FIELDS = {name: python_name(name) for name in OUTPUT_NAMES}
 
 
 VariableType = Literal["Real", "Integer", "Boolean", "Enumeration", "String"]
@@ -124,6 +127,51 @@ def scene_from_values(values: Mapping[str, Any], interface: Interface | None = N
     return Scene().with_values(scene_values)
 
 
+TYPE_REQUIREMENTS = {"Real": "a number", "Integer": "an integer", "Boolean": "true or false"}
+"""What a value of each FMI type must be, in the one wording every message about a bad value uses
+("... is not allowed: it must be a number"; a choice: "... is not allowed: choose one of ...")."""
+
+
+def requirement(type_name: str, items: tuple[str, ...] = ()) -> str:
+    """The clause of a message refusing a value that is not of its variable's type or vocabulary."""
+    if items:
+        numbers = f"1 to {len(items)}" if len(items) > 1 else "1"
+        return f"choose one of {', '.join(items)} (or their numbers {numbers})"
+    return f"it must be {TYPE_REQUIREMENTS.get(type_name, 'a number')}"
+
+
+def parameter(interface: Interface, name: str) -> Variable:
+    """The parameter `name`, for a value from text; ValueError saying what `name` is otherwise."""
+    try:
+        var = interface.by_name(name)
+    except KeyError:
+        raise ValueError(f"{name} is not a variable of the FMU (see `fem-pendulum interface`)") from None
+    if var.causality != "parameter":
+        raise ValueError(f"{name} is an {var.causality}, not a parameter: only parameters take a start value here")
+    return var
+
+
+def parse_text(var: Variable, text: str) -> float | int | bool | str:
+    """A parameter's value from text (a command line's NAME=VALUE, a sweep's grid or table) by its declared
+    type: an enumeration's item name or number, true/false (or 1/0), an integer, a number, a String as
+    written. ValueError: "parameter NAME = 'TEXT' is not allowed: ..." (`requirement`)."""
+    if var.type == "String" and not var.items:
+        return text  # a folder's name keeps its spaces
+    text = text.strip()
+    try:
+        if var.items:
+            return text if text in var.items else var.item_name(int(text))
+        if var.type == "Boolean":
+            if text.lower() not in ("true", "false", "1", "0"):
+                raise ValueError(text)
+            return text.lower() in ("true", "1")
+        return int(text) if var.type == "Integer" else float(text)
+    except ValueError:
+        raise ValueError(
+            f"parameter {var.name} = {text!r} is not allowed: {requirement(var.type, var.items)}"
+        ) from None
+
+
 def _alias_item(alias: str, target: Variable, index: int) -> str:
     """The item an Integer alias other than 0 picks; a ValueError naming the alias (not its enumeration) and the
     values it takes."""
@@ -188,7 +236,9 @@ def _word(element: ET.Element, name: str, value: str | None, vocabulary: Any) ->
     """`value` if it is a word of the Literal `vocabulary`; ValueError naming it and the words otherwise."""
     words = get_args(vocabulary)
     if value not in words:
-        raise ValueError(f"{TEMPLATE_NAME}: <{element.tag}> {name} = {value!r}: allowed are {', '.join(words)}")
+        raise ValueError(
+            f"{TEMPLATE_NAME}: <{element.tag}> {name} = {value!r} is not allowed: choose one of {', '.join(words)}"
+        )
     return value
 
 
@@ -270,8 +320,13 @@ def markdown_table(interface: Interface | None = None) -> str:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--markdown", action="store_true", help="print the README's variable table")
-    parser.add_argument("--write-readme", type=Path, metavar="README", help="replace the table between the markers")
+    parser.add_argument("--markdown", action="store_true", help="print the variables as a Markdown table")
+    parser.add_argument(
+        "--write-readme",
+        type=Path,
+        metavar="README",
+        help="replace the table between the interface-table markers of this Markdown file",
+    )
 
 
 def command(args: argparse.Namespace) -> None:
@@ -289,7 +344,7 @@ def command(args: argparse.Namespace) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Print the FMI interface declared in the template.")
+    parser = argparse.ArgumentParser(description="Print the FMU's variables.")
     add_arguments(parser)
     command(parser.parse_args(argv))
 

@@ -30,7 +30,7 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variabil
 from pythonfmu.variables import Boolean, Integer, Real, String
 
 from ..physics.fidelity import PendulumModel, StepFailed, create
-from ..physics.protocol import SUMMARY_OUTPUTS, OutputDerivatives, Outputs, StopAt
+from ..physics.protocol import NO_SHORTER_STEP, SUMMARY_OUTPUTS, OutputDerivatives, Outputs, StopAt
 from ..physics.torque import Torque, TorqueProfile
 from . import interface as fmi_interface
 from .fmi_logging import LOG, FmiLogHandler, route_to, routed, unroute
@@ -271,10 +271,7 @@ class PendulumSlave(CheckedVariableAccess):
         if repeated:
             advice = f"; the same step was discarded before: {end}, or take a shorter one"
         elif self.cannot_continue:
-            advice = (
-                f"; a shorter communication step cannot help: {end}, or restore an earlier FMU state or change the "
-                "input"
-            )
+            advice = f"; {NO_SHORTER_STEP}: {end}, or restore an earlier FMU state or change the input"
         return f"doStep discarded at t = {t!r}, state kept: {exc}{advice}"
 
     def terminate(self) -> None:

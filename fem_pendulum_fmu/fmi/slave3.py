@@ -100,7 +100,7 @@ class PendulumSlave3(Fmi3Slave):
         if done and after is not None and inner.model is not None:
             self.early_return = inner.model.time < current_time + step_size
             in_contact_after = after.contact_force > 0.0
-            onset = not in_contact and (in_contact_after or after.min_gap <= 0.0)  # an impact within the step too
+            onset = not in_contact and (in_contact_after or after.gap_min <= 0.0)  # an impact within the step too
             self.event_handling_needed = onset or (in_contact and not in_contact_after)
         return done
 

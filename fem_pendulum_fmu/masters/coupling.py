@@ -29,7 +29,7 @@ class DerivativeSlave(Protocol):
 def check_hold(order: int) -> int:
     """`order` if it is a hold order this project's FMUs take (0, 1, 2); ValueError naming it otherwise."""
     if order not in HOLD_ORDERS:
-        raise ValueError(f"hold order {order!r} is not allowed: choose 0 (zero-order), 1 (first) or 2 (second)")
+        raise ValueError(f"hold order {order!r} is not allowed: choose one of 0 (zero-order), 1 (first), 2 (second)")
     return order
 
 

@@ -32,6 +32,18 @@ def not_instantiated(fmu: Path | str, problems: list[str]) -> IncompleteRun:
     return IncompleteRun(f"the FMU {fmu} could not be instantiated: {said}")
 
 
+def what_to_try(said: str, lighter: str) -> str:
+    """The advice after a run the pendulum FMU stopped: `lighter`, the command's own way to load it less
+    ("a smaller torque"), a stiffer material, a finer mesh, and a shorter --step unless the FMU said
+    (`said`) that a shorter step cannot help: the advice must not contradict the message it follows."""
+    from ..physics.protocol import NO_SHORTER_STEP
+
+    ideas = [lighter, "a stiffer material", "a finer mesh (model.mesh_size)"]
+    if NO_SHORTER_STEP not in said:
+        ideas.append("a shorter --step")
+    return f"Try {', '.join(ideas[:-1])} or {ideas[-1]}"
+
+
 def finite_cell(row: list[str], k: int) -> tuple[float | None, str]:
     """Cell k of a CSV row as a finite number (None if it is not one, or missing), and its text."""
     text = row[k].strip() if k < len(row) else ""
@@ -45,9 +57,11 @@ def finite_cell(row: list[str], k: int) -> tuple[float | None, str]:
 def check_times(stop_time: float, step: float) -> None:
     """UsageError unless the stop time is finite and positive and the step positive and not above it."""
     if not (math.isfinite(stop_time) and stop_time > 0.0):
-        raise UsageError(f"--stop-time {stop_time!r} is not allowed: give a finite time > 0 (s)")
+        raise UsageError(f"--stop-time {stop_time!r} is not allowed: it must be a finite time > 0 (s)")
     if not (math.isfinite(step) and 0.0 < step <= stop_time):
-        raise UsageError(f"--step {step!r} is not allowed: give a finite step > 0, at most --stop-time {stop_time!r}")
+        raise UsageError(
+            f"--step {step!r} is not allowed: it must be a finite step > 0 (s), at most --stop-time {stop_time!r}"
+        )
 
 
 def check_fmu(path: Path, option: str = "--fmu") -> Path:

@@ -28,6 +28,7 @@ from .failures import (
     fidelity_choice,
     finite_cell,
     not_instantiated,
+    what_to_try,
 )
 from .realtime import Pacer
 from .run_options import add_run_options
@@ -68,8 +69,9 @@ def _cell(path: Path, row: list[str], number: int, name: str, k: int) -> float:
 
 
 def parse_start_values(items: list[str], option: str = "--set") -> dict[str, float | int | bool | str]:
-    """NAME=VALUE pairs to start values; an enumeration takes its item name (model.fidelity=auto)
-    or number, a Boolean true/false, a String the text as it is (output.vtk_folder=out/fields)."""
+    """NAME=VALUE pairs to start values, each by its declared type (interface.parse_text): an enumeration
+    takes its item name (model.fidelity=auto) or number, a Boolean true/false, a String the text as it is
+    (output.vtk_folder=out/fields); enumerations are returned by number, as the FMU takes them."""
     from ..fmi import interface
 
     ifc = interface.load()
@@ -77,24 +79,13 @@ def parse_start_values(items: list[str], option: str = "--set") -> dict[str, flo
     for item in items:
         name, _, text = item.partition("=")
         if not _:
-            raise UsageError(f"{option} {item!r}: expected NAME=VALUE")
+            raise UsageError(f"{option} {item}: expected NAME=VALUE")
         try:
-            var = ifc.by_name(name)
-        except KeyError:
-            known = "see `fem-pendulum interface`"
-            raise UsageError(f"{option} {item!r}: {name} is not a variable of the FMU ({known})") from None
-        if var.items and text in var.items:
-            values[name] = var.item_number(text)
-        elif var.type == "Boolean" and text.lower() in ("true", "false"):
-            values[name] = text.lower() == "true"
-        elif var.type == "String":
-            values[name] = text
-        else:
-            try:
-                values[name] = float(text) if any(c in text for c in ".eE") else int(text)
-            except ValueError:
-                allowed = f"one of {', '.join(var.items)} or their numbers" if var.items else f"a {var.type} number"
-                raise UsageError(f"{option} {item!r}: {text!r} is not allowed for {name}: use {allowed}") from None
+            var = interface.parameter(ifc, name)
+            value = interface.parse_text(var, text)
+        except ValueError as exc:
+            raise UsageError(f"{option} {item}: {exc}") from None
+        values[name] = var.item_number(str(value)) if var.items else value
     return values
 
 
@@ -181,7 +172,7 @@ def incomplete(result: RunResult, stop_time: float, wrote: str) -> IncompleteRun
     said = result.error or (result.problems[-1] if result.problems else "the FMU gave no message")
     return IncompleteRun(
         f"the run stopped at t = {reached:.6g} s of {stop_time:g} s: {said}. {wrote}. "
-        "Try a smaller torque, a stiffer material or a finer mesh (model.mesh_size), or a shorter --step"
+        f"{what_to_try(said, 'a smaller torque')}"
     )
 
 

@@ -24,19 +24,40 @@ def resolve_fidelity(scene: Scene) -> str:
     from .fidelity_rule import choose
 
     choice = choose(scene)
-    LOG.info("model.fidelity = auto picked %s: %s", choice.fidelity, choice.reason)
+    LOG.info("model.fidelity = auto picks %s: %s", choice.fidelity, choice.reason)
     return choice.fidelity
 
 
 def create(scene: Scene) -> PendulumModel:
-    """Validate the scene and build the model it asks for, under shared_state.SHARED_STATE: one model is built at
-    a time in a process (what each builds with netgen and NGSolve is theirs; stepping runs concurrently). The lock
-    also covers the fidelities' modules, imported on first use here (a rigid scene loads no NGSolve): two threads
-    importing two fidelities' trees at once can each wait for a module the other is importing, which Python
-    breaks by handing one of them a module half imported."""
+    """Validate the scene and build the model of the fidelity it asks for (model.fidelity).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene, e.g. ``steel()``, ``rubber(model_fidelity="rigid")`` or ``Scene().with_values({...})``.
+
+    Returns
+    -------
+    PendulumModel
+        At time 0, at theta0 turning at omega0: a RigidModel, ReducedModel or FemModel ("auto": the
+        cheapest the scene needs, physics/fidelity_rule.py).
+
+    Raises
+    ------
+    ValueError
+        Every bad parameter of the scene at once (`problems`), or a wall the fidelity cannot model.
+
+    Notes
+    -----
+    Built under shared_state.SHARED_STATE: one model is built at a time in a process (what each builds
+    with netgen and NGSolve is theirs; stepping runs concurrently). The lock also covers the fidelities'
+    modules, imported on first use here (a rigid scene loads no NGSolve): two threads importing two
+    fidelities' trees at once can each wait for a module the other is importing, which Python breaks by
+    handing one of them a module half imported.
+    """
     with SHARED_STATE:
         if scene.model.order == AUTO_ORDER:
-            LOG.info("model.order = %d (auto) picked %d for this material", AUTO_ORDER, element_order(scene))
+            LOG.info("model.order = %d (auto) picks %d for this material", AUTO_ORDER, element_order(scene))
         scene = validate(scene)
         fidelity = resolve_fidelity(scene)
         if fidelity not in AVAILABLE:

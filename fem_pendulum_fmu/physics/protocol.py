@@ -6,6 +6,8 @@ The FMI slave and the masters only ever see `PendulumModel`, `Outputs` and
 
 from __future__ import annotations
 
+import functools
+import inspect
 import io
 import json
 import math
@@ -15,6 +17,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from .names import OLD_OUTPUT_NAMES, RenamedKeys, warn_renamed
 from .scene import Scene
 from .torque import Torque, TorqueProfile
 
@@ -22,33 +25,46 @@ from .torque import Torque, TorqueProfile
 class StepFailed(RuntimeError):
     """The model could not complete an advance; its state is as it was before the call.
 
-    `shorter_step_helps`: an advance over a shorter interval from the same state can succeed (the
-    internal steps an advance may take ran out, solver.max_substeps); False when the nonlinear solve
-    failed down to the smallest internal step, where only another input or an earlier state can."""
+    Attributes
+    ----------
+    shorter_step_helps : bool
+        True: an advance over a shorter interval from the same state can succeed (the internal steps an
+        advance may take ran out, solver.max_substeps). False: the nonlinear solve failed down to the
+        smallest internal step, where only another input or an earlier state can.
+    """
 
     def __init__(self, message: str, shorter_step_helps: bool = False):
         super().__init__(message)
         self.shorter_step_helps = shorter_step_helps
 
 
+NO_SHORTER_STEP = "a shorter communication step cannot help"
+"""What the FMU says of a discarded step whose StepFailed.shorter_step_helps is False (fmi/slave.py); a
+master that reads it does not advise a shorter step (masters/failures.py what_to_try)."""
+
+
 @dataclass
 class Outputs:
-    """Everything a model reports after an advance (SI units)."""
+    """Everything a model reports after an advance (SI units).
+
+    Each field is the FMU output of the same name, its '.' written '_' (physics/names.py):
+    `energy_total` is the FMU's energy.total. The names before that rule (`total`, `min_gap`, ...)
+    still read, with a DeprecationWarning."""
 
     time: float = 0.0
     theta: float = 0.0
     omega: float = 0.0
     gap: float = 0.0
     contact_force: float = 0.0
-    kinetic: float = 0.0
-    potential: float = 0.0
-    strain: float = 0.0
-    contact: float = 0.0
-    total: float = 0.0
-    torque_work: float = 0.0
-    von_mises_max: float = 0.0
-    substeps: int = 0
-    min_gap: float = math.nan  # smallest gap at the internal steps of the last advance; nan = not reported
+    energy_kinetic: float = 0.0
+    energy_potential: float = 0.0
+    energy_strain: float = 0.0
+    energy_contact: float = 0.0
+    energy_total: float = 0.0
+    energy_torque_work: float = 0.0
+    stress_von_mises_max: float = 0.0
+    solver_substeps: int = 0
+    gap_min: float = math.nan  # smallest gap at the internal steps of the last advance; nan = not reported
     contact_force_max: float = 0.0  # largest contact force at the internal steps of the last advance (N)
     contact_impulse: float = 0.0  # |sum over those steps of the scheme's contact force times the step| (N.s)
     # the contact's hold at the end of the last advance (s): time in contact less time out of it since it
@@ -56,27 +72,57 @@ class Outputs:
     contact_hold: float = 0.0
 
     def as_dict(self) -> dict[str, float]:
-        return asdict(self)
+        """Field name -> value; the old names still index it (with a DeprecationWarning)."""
+        return RenamedKeys(asdict(self))
 
+
+def _old_name(old: str, new: str) -> property:
+    """A read-only property `old` that warns and reads the field `new`."""
+
+    def read(self: Outputs) -> Any:
+        warn_renamed(old, new, "Outputs field")
+        return getattr(self, new)
+
+    return property(read, doc=f"Deprecated name of `{new}`.")
+
+
+def _accepting_old_keywords(init: Callable[..., None]) -> Callable[..., None]:
+    """Outputs' __init__, taking the old field names as keywords too (with a DeprecationWarning)."""
+
+    @functools.wraps(init)
+    def __init__(self: Outputs, *args: Any, **values: Any) -> None:
+        if values and not OLD_OUTPUT_NAMES.keys().isdisjoint(values):
+            for old in OLD_OUTPUT_NAMES.keys() & values.keys():
+                warn_renamed(old, OLD_OUTPUT_NAMES[old], "Outputs field")
+                values[OLD_OUTPUT_NAMES[old]] = values.pop(old)
+        init(self, *args, **values)
+
+    return __init__
+
+
+for _old, _new in OLD_OUTPUT_NAMES.items():
+    setattr(Outputs, _old, _old_name(_old, _new))
+del _old, _new
+Outputs.__init__ = _accepting_old_keywords(Outputs.__init__)  # type: ignore[method-assign]
 
 CONTINUOUS_OUTPUTS = (
     "theta",
     "omega",
     "gap",
     "contact_force",
-    "kinetic",
-    "potential",
-    "strain",
-    "contact",
-    "total",
-    "torque_work",
-    "von_mises_max",
+    "energy_kinetic",
+    "energy_potential",
+    "energy_strain",
+    "energy_contact",
+    "energy_total",
+    "energy_torque_work",
+    "stress_von_mises_max",
 )
 """The Outputs fields that are functions of the state at an instant, whose time derivatives exist."""
 
 SUMMARY_OUTPUTS = {
-    "substeps": "it counts the internal steps of the last doStep",
-    "min_gap": "it is the smallest gap over the internal steps of the last doStep",
+    "solver_substeps": "it counts the internal steps of the last doStep",
+    "gap_min": "it is the smallest gap over the internal steps of the last doStep",
     "contact_force_max": "it is the largest contact force over the internal steps of the last doStep",
     "contact_impulse": "it is the contact impulse over the whole last doStep",
     "contact_hold": "it is the contact's hold as the step control counts it",
@@ -93,8 +139,30 @@ class OutputDerivatives:
     first: dict[str, float]
     second: dict[str, float]
 
+    def __post_init__(self) -> None:
+        # indexed by users with the field names, the old ones included (with a DeprecationWarning)
+        self.first, self.second = RenamedKeys(self.first), RenamedKeys(self.second)
+
     def of(self, field_name: str, order: int) -> float:
-        """The derivative of `order` (1 or 2) of an Outputs field; KeyError for a field without one."""
+        """The derivative of one output.
+
+        Parameters
+        ----------
+        field_name : str
+            An Outputs field of CONTINUOUS_OUTPUTS, e.g. "energy_total".
+        order : int
+            1 or 2.
+
+        Returns
+        -------
+        float
+            In the field's unit per s (order 1) or per s^2 (order 2).
+
+        Raises
+        ------
+        KeyError
+            A field without a time derivative (SUMMARY_OUTPUTS) or no field.
+        """
         return (self.first if order == 1 else self.second)[field_name]
 
 
@@ -125,7 +193,13 @@ class ModelState:
         )
 
     def to_bytes(self) -> bytes:
-        """Serialise to a self-describing .npz byte string (no pickle)."""
+        """Serialise, for an FMU state a master stores (fmi2SerializeFMUstate).
+
+        Returns
+        -------
+        bytes
+            A self-describing .npz (no pickle: loading it runs no code).
+        """
         header = {
             "format": "fem_pendulum_fmu.state",
             "version": 1,
@@ -141,7 +215,21 @@ class ModelState:
 
     @staticmethod
     def from_bytes(data: bytes) -> ModelState:
-        """Inverse of to_bytes; raises ValueError on anything that is not such a state."""
+        """The state `to_bytes` serialised.
+
+        Parameters
+        ----------
+        data : bytes
+
+        Returns
+        -------
+        ModelState
+
+        Raises
+        ------
+        ValueError
+            Anything that is not such a state, or one of an unknown version.
+        """
         try:
             with np.load(io.BytesIO(bytes(data)), allow_pickle=False) as npz:
                 header = json.loads(npz["__header__"].tobytes().decode())
@@ -161,36 +249,127 @@ StopAt = Callable[[float, float, float], bool]
 
 @runtime_checkable
 class PendulumModel(Protocol):
-    """What the slave and the masters need from any fidelity."""
+    """What the slave and the masters need from any fidelity (`create` builds one).
+
+    Attributes
+    ----------
+    scene : Scene
+        The validated scene the model was built from.
+    fidelity : str
+        "rigid", "reduced" or "fem": the model that runs ("auto" is resolved by `create`).
+    time : float
+        The model time (s), the absolute time that `advance` integrates up to.
+    """
 
     scene: Scene
     fidelity: str
-    time: float  # the current model time (s)
+    time: float
 
-    def advance(self, t_end: float, torque: Torque, stop: StopAt | None = None) -> Outputs:
-        """Integrate from the current time to t_end with the torque held constant (a float) or
-        following a TorqueProfile given at the current time (physics/torque.py). With `stop`, it is
-        asked after every internal step (its end time, the gap before and after it) and the advance
-        ends there when it answers True: the model's time is then that step's end (stepping.py).
+    def advance(self, t_end: float, torque: Torque = 0.0, stop: StopAt | None = None) -> Outputs:
+        """Integrate from the current time to the absolute time `t_end`.
 
-        Raises StepFailed (state unchanged) when the step cannot be completed and
-        ValueError for a bad argument (state unchanged)."""
+        Parameters
+        ----------
+        t_end : float
+            The time to reach (s): absolute, as an FMU's doStep reaches t + h, so that a sequence of
+            advances never accumulates round-off in the model's time; it must lie after `time`.
+        torque : float or TorqueProfile, default 0.0
+            The drive torque at the hinge (N.m, counter-clockwise positive): a float is held constant
+            over the advance; a TorqueProfile is a polynomial in the time since the advance's start
+            (FMI input interpolation, physics/torque.py).
+        stop : callable, optional
+            Asked after every internal step with (its end time, the gap before it, the gap after it);
+            the advance ends there when it answers True (an event an FMI 3.0 master stops at) and the
+            model's time is then that step's end.
+
+        Returns
+        -------
+        Outputs
+            The outputs at the new time, with the summary of this advance (solver_substeps, gap_min,
+            contact_force_max, contact_impulse).
+
+        Raises
+        ------
+        StepFailed
+            The advance cannot be completed; the state is as before the call, so that a master can
+            retry (a shorter interval helps when `StepFailed.shorter_step_helps`).
+        ValueError
+            `t_end` not after `time`, or a torque that is not finite; the state is unchanged.
+        """
 
     def output_derivatives(self, torque: TorqueProfile) -> OutputDerivatives:
-        """The first and second time derivatives of the continuous outputs at the current state,
-        with the torque following `torque` from now on (physics/output_rates.py)."""
+        """The first and second time derivatives of the continuous outputs at the current state, for a
+        master that extrapolates them over its next step (physics/output_rates.py).
+
+        Parameters
+        ----------
+        torque : TorqueProfile
+            The torque from now on: the derivatives depend on it through the acceleration.
+
+        Returns
+        -------
+        OutputDerivatives
+            The derivatives of each of CONTINUOUS_OUTPUTS; the state is unchanged.
+
+        Raises
+        ------
+        StepFailed
+            A fidelity that probes by advancing could not (its state is restored).
+        """
 
     def outputs(self) -> Outputs:
-        """The outputs at the current time."""
+        """The outputs at the current time, as the last advance (or the start) left them.
+
+        Returns
+        -------
+        Outputs
+            The object the last advance returned (each advance returns a new one).
+        """
 
     def get_state(self) -> ModelState:
-        """A deep copy of the full state."""
+        """The full state, for a rollback (`set_state`) or for serialising (`ModelState.to_bytes`).
+
+        Returns
+        -------
+        ModelState
+            A deep copy: later advances do not change it.
+        """
 
     def set_state(self, state: ModelState) -> None:
-        """Restore a state taken from a model built with the same scene."""
+        """Restore a state taken with `get_state`; the next advance continues bit for bit as after it.
+
+        Parameters
+        ----------
+        state : ModelState
+            Taken from a model of the same fidelity built from the same scene.
+
+        Raises
+        ------
+        ValueError
+            A state of another fidelity, or one whose arrays do not fit this model.
+        """
 
     def fields(self) -> list[BodyField]:
-        """Nodal fields of the current state, the pendulum first (then the meshed wall, if any)."""
+        """The nodal fields of the current state, for field output (ParaView).
+
+        Returns
+        -------
+        list of BodyField
+            The pendulum first, then the meshed wall if there is one.
+        """
+
+
+def protocol_doc(method: Callable[..., Any]) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """A decorator that gives a fidelity's method the protocol method's docstring, its own (what this
+    fidelity does) as the Notes: help(model.advance) then says what every model's advance takes."""
+
+    def decorate(implementation: Callable[..., Any]) -> Callable[..., Any]:
+        own = inspect.cleandoc(implementation.__doc__ or "")
+        notes = f"\n\nNotes\n-----\n{own}" if own else ""
+        implementation.__doc__ = inspect.cleandoc(method.__doc__ or "") + notes
+        return implementation
+
+    return decorate
 
 
 def check_advance_args(time: float, t_end: float, torque: Torque) -> None:
@@ -207,14 +386,15 @@ def check_advance_args(time: float, t_end: float, torque: Torque) -> None:
 
 
 ADVANCE_SUMMARY_KEYS = {
-    "substeps": "substeps",
-    "min_gap": "last_min_gap",
+    "solver_substeps": "substeps",
+    "gap_min": "last_min_gap",
     "contact_force_max": "last_contact_force_max",
     "contact_impulse": "last_contact_impulse",
     "contact_hold": "last_contact_hold",
 }
 """The outputs that describe the last advance rather than the state, and the ModelState scalars that
-carry them. Every fidelity's state has them (written once, by `model_state`), and
+carry them (the state's keys are those of the states serialised before the outputs' renaming, so
+that they still restore). Every fidelity's state has them (written once, by `model_state`), and
 `restore_advance_summary` puts them back, so a restored model reports what the original did;
 contact_hold also steers the next advance's steps, so a restored state steps exactly as the original."""
 
@@ -229,10 +409,10 @@ def model_state(
 
 def restore_advance_summary(state: ModelState, outputs: Outputs) -> Outputs:
     """Set the advance summary of `outputs`, computed afresh from a restored state, to the one `state`
-    was taken with (a state without it: no steps, the gap as min_gap, no contact)."""
+    was taken with (a state without it: no steps, the gap as gap_min, no contact)."""
     sc = state.scalars
-    outputs.substeps = int(sc.get("substeps", 0))
-    outputs.min_gap = float(sc.get("last_min_gap", outputs.gap))
+    outputs.solver_substeps = int(sc.get("substeps", 0))
+    outputs.gap_min = float(sc.get("last_min_gap", outputs.gap))
     for name in ("contact_force_max", "contact_impulse", "contact_hold"):
         setattr(outputs, name, float(sc.get(ADVANCE_SUMMARY_KEYS[name], 0.0)))
     return outputs

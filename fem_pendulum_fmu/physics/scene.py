@@ -9,10 +9,13 @@ what is allowed; `validate` raises one ValueError that lists them all.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal, get_args
+
+from .names import RenamedKeys, dotted_keywords, warn_renamed
 
 WallKind = Literal["rigid", "deformable", "none"]
 Fidelity = Literal["auto", "rigid", "reduced", "fem"]
@@ -111,7 +114,23 @@ class Scene:
     block: WallBlock = field(default_factory=WallBlock)
 
     def with_values(self, values: Mapping[str, Any]) -> Scene:
-        """A copy with values given by dotted names, e.g. {"pendulum.E": 1e6}."""
+        """A copy with some parameters changed (the scene is frozen: a copy is the way to change it).
+
+        Parameters
+        ----------
+        values : mapping
+            Parameter values by their FMU names, e.g. ``{"pendulum.E": 1e6, "model.fidelity": "rigid"}``.
+
+        Returns
+        -------
+        Scene
+            Not validated: `problems`, `validate` or `create` check it.
+
+        Raises
+        ------
+        KeyError
+            A name that is not a parameter.
+        """
         return replace_path(self, values)
 
 
@@ -128,27 +147,76 @@ def element_order(scene: Scene) -> int:
     return SOFT_ORDER if scene.pendulum.soft else STIFF_ORDER
 
 
-def stiff(**values: Any) -> Scene:
-    """Steel pendulum (the default scene)."""
-    return Scene().with_values(_dotted(values))
+def steel(**values: Any) -> Scene:
+    """The steel pendulum (the default scene), with `values` changed.
+
+    Parameters
+    ----------
+    **values
+        Parameters by their FMU names, each '.' written '_' (``pendulum_E=1e9``, ``model_fidelity="rigid"``).
+
+    Returns
+    -------
+    Scene
+        Not validated: `validate` or `create` refuses a bad value.
+
+    Raises
+    ------
+    KeyError
+        A keyword that names no parameter.
+    """
+    return _preset(Scene(), values)
 
 
-def compliant(**values: Any) -> Scene:
-    """Rubber-like pendulum: E 1 MPa, nu 0.45, rho 1000, k 5e9 Pa/m.
+def rubber(**values: Any) -> Scene:
+    """The rubber pendulum: E 1 MPa, nu 0.45, rho 1000, k 5e9 Pa/m, with `values` changed (as `steel`).
 
     model.order auto (element_order) gives it order-3 elements: the coarsest discretisation whose angle
     and gap stay within 0.5 degree and 1 mm of a fine reference through an impact
-    (benchmarks/mesh_study.py --preset compliant, docs/fem.md)."""
-    base = Scene(pendulum=Material(E=1e6, nu=0.45, rho=1000.0), contact=Contact(stiffness=5e9))
-    return base.with_values(_dotted(values))
+    (benchmarks/mesh_study.py --preset rubber, docs/fem.md)."""
+    return _preset(_rubber(), values)
 
 
-PRESETS = {"stiff": stiff, "compliant": compliant}
+def _rubber() -> Scene:
+    return Scene(pendulum=Material(E=1e6, nu=0.45, rho=1000.0), contact=Contact(stiffness=5e9))
 
 
-def _dotted(values: Mapping[str, Any]) -> dict[str, Any]:
-    """Keyword form pendulum__E=... to dotted form pendulum.E=..."""
-    return {k.replace("__", "."): v for k, v in values.items()}
+def _preset(base: Scene, values: Mapping[str, Any]) -> Scene:
+    """`base` with keyword values (names.dotted_keywords; its warning points at the preset's caller)."""
+    return base.with_values(dotted_keywords(values, scene_names(), stacklevel=4))
+
+
+def stiff(**values: Any) -> Scene:
+    """Deprecated name of `steel`."""
+    warn_renamed("stiff", "steel", "the preset")
+    return _preset(Scene(), values)
+
+
+def compliant(**values: Any) -> Scene:
+    """Deprecated name of `rubber`."""
+    warn_renamed("compliant", "rubber", "the preset")
+    return _preset(_rubber(), values)
+
+
+class _Presets(RenamedKeys):
+    """PRESETS: preset name -> function; the old names still index it (with a DeprecationWarning)."""
+
+    old_names = {"stiff": "steel", "compliant": "rubber"}
+    what = "the preset"
+
+
+PRESETS = _Presets(steel=steel, rubber=rubber)
+"""The scenes by the name the command lines and benchmarks give them."""
+
+
+@functools.lru_cache(maxsize=1)
+def scene_names() -> tuple[str, ...]:
+    """Every parameter's dotted name, the Scene's attribute path ("theta0", "pendulum.E", "geometry.head_radius")."""
+    names: list[str] = []
+    for name, value in vars(Scene()).items():
+        fields = dataclasses.fields(value) if dataclasses.is_dataclass(value) else ()
+        names.extend([f"{name}.{f.name}" for f in fields] or [name])
+    return tuple(names)
 
 
 def replace_path(scene: Scene, values: Mapping[str, Any]) -> Scene:
@@ -208,8 +276,22 @@ def _interval(lo: float, hi: float, lo_in: bool, hi_in: bool) -> str:
 
 
 def validate(scene: Scene) -> Scene:
-    """Raise one ValueError listing every bad parameter (`problems`), else return the scene with
-    model.order resolved (element_order): every model is built from what this returns."""
+    """The scene every model is built from, once its parameters are checked.
+
+    Parameters
+    ----------
+    scene : Scene
+
+    Returns
+    -------
+    Scene
+        `scene` with model.order 0 (auto) resolved to the order its material needs (`element_order`).
+
+    Raises
+    ------
+    ValueError
+        One error listing every bad parameter (`problems`), so that one try shows them all.
+    """
     found = problems(scene)
     if found:
         raise ValueError("; ".join(found) if len(found) == 1 else f"{len(found)} bad parameters: " + "; ".join(found))
@@ -217,8 +299,18 @@ def validate(scene: Scene) -> Scene:
 
 
 def problems(scene: Scene) -> list[str]:
-    """Every bad parameter of `scene`, each a sentence naming it, its value and what is allowed
-    (empty for a good scene). The memory estimate is checked only once the rest is good."""
+    """Every bad parameter of `scene`, without raising (for a user interface that lists them).
+
+    Parameters
+    ----------
+    scene : Scene
+
+    Returns
+    -------
+    list of str
+        One sentence per bad parameter naming it, its value and what is allowed; empty for a good scene.
+        The memory estimate of the mesh is checked only once the rest is good (it needs their values).
+    """
     found = _range_problems(scene) + _choice_problems(scene)
     if found:
         return found
@@ -237,17 +329,17 @@ def _range_problems(scene: Scene) -> list[str]:
             ok = (value >= lo if lo_in else value > lo) and (value <= hi if hi_in else value < hi)
         if not ok:
             found.append(
-                f"parameter {name} = {value!r} is out of range: allowed is a finite number in "
+                f"parameter {name} = {value!r} is not allowed: it must be a finite number in "
                 f"{_interval(lo, hi, lo_in, hi_in)}"
             )
     for name, (ilo, ihi) in _INT_RANGES.items():
         value = get_path(scene, name)
         if isinstance(value, bool) or not isinstance(value, int) or not ilo <= value <= ihi:
-            found.append(f"parameter {name} = {value!r} is out of range: allowed is an integer in [{ilo}, {ihi}]")
+            found.append(f"parameter {name} = {value!r} is not allowed: it must be an integer in [{ilo}, {ihi}]")
     order = scene.model.order
     if isinstance(order, bool) or not isinstance(order, int) or not (order == AUTO_ORDER or 2 <= order <= 5):
         found.append(
-            f"parameter model.order = {order!r} is out of range: allowed is an integer in [2, 5], "
+            f"parameter model.order = {order!r} is not allowed: it must be an integer in [2, 5], "
             f"or {AUTO_ORDER} (auto: {SOFT_ORDER} for a soft pendulum, E / rho <= {SOFT_LIMIT:g} m^2/s^2, "
             f"else {STIFF_ORDER})"
         )
@@ -262,7 +354,9 @@ def _choice_problems(scene: Scene) -> list[str]:
         if value not in choices:
             found.append(f"parameter {name} = {value!r} is not allowed: choose one of {', '.join(choices)}")
     if not isinstance(scene.model.compute_stress, bool):
-        found.append(f"parameter model.compute_stress = {scene.model.compute_stress!r}: allowed is true or false")
+        found.append(
+            f"parameter model.compute_stress = {scene.model.compute_stress!r} is not allowed: it must be true or false"
+        )
     if scene.solver.scheme != "energy_momentum" and scene.model.fidelity != "fem":
         found.append(
             f"parameter solver.scheme = {scene.solver.scheme!r} is an option of the fem fidelity only: "
@@ -282,8 +376,8 @@ def _memory_problem(scene: Scene) -> str | None:
     return (
         f"parameters model.mesh_size = {scene.model.mesh_size!r} with model.order = {scene.model.order} "
         f"would need about {need / 2**30:.3g} GiB (estimate), more than this machine's "
-        f"{have / 2**30:.3g} GiB: allowed are mesh sizes down to about "
-        f"{smallest_mesh_size(scene, have):.2g} m at this order"
+        f"{have / 2**30:.3g} GiB: model.mesh_size must be about {smallest_mesh_size(scene, have):.2g} m or more "
+        "at this order"
     )
 
 

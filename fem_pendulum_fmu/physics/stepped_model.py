@@ -10,7 +10,7 @@ from typing import Generic
 import numpy as np
 
 from .compiled_advance import advance
-from .protocol import Outputs, StopAt, check_advance_args
+from .protocol import Outputs, PendulumModel, StopAt, check_advance_args, protocol_doc
 from .stepping import AdvanceResult, StepControl, X
 from .torque import Torque, TorqueProfile
 
@@ -46,7 +46,9 @@ class SteppedModel(Generic[X]):
     def _compute_outputs(self, x: X, t: float, substeps: int) -> Outputs:
         raise NotImplementedError
 
-    def advance(self, t_end: float, torque: Torque, stop: StopAt | None = None) -> Outputs:
+    @protocol_doc(PendulumModel.advance)
+    def advance(self, t_end: float, torque: Torque = 0.0, stop: StopAt | None = None) -> Outputs:
+        """The shared step control (core/stepping.c) over the fidelity's state."""
         check_advance_args(self.time, t_end, torque)
         torque = torque if isinstance(torque, TorqueProfile) else float(torque)
         result = self._stepped(float(t_end), torque, stop)

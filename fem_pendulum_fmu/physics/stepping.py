@@ -37,7 +37,7 @@ The rule, in words (it is what `solver.max_step` and `solver.tolerance` mean):
   The hold grows by the time in contact and shrinks by `HOLD_DECAY` of the
   time out of it (never below 0), a step that enters or leaves contact split
   where its end gaps, interpolated linearly, cross zero. A stiff impact is
-  over within one duration and then flies off; a compliant body's long
+  over within one duration and then flies off; a soft body's long
   impact carries forces far above the load; both stay resolved. A head that
   stays, or lifts off only briefly (an elastic head's rod vibrating under
   the load), is kept there by the load, and the undamped normal vibration
@@ -228,7 +228,7 @@ def finish_advance(outputs: Outputs, min_gap: float, force_max: float, impulse: 
     from its internal steps, or the end's gap if smaller), its largest contact force, the magnitude
     of its contact impulse and the contact's hold; returns that smallest gap."""
     gap = outputs.gap
-    outputs.min_gap = min_gap = min_gap if min_gap < gap else gap
+    outputs.gap_min = min_gap = min_gap if min_gap < gap else gap
     outputs.contact_force_max = force_max
     outputs.contact_impulse = impulse
     outputs.contact_hold = hold

@@ -20,8 +20,17 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class TorqueProfile:
-    """T(s) = value + rate s + curvature s^2 / 2 (N.m, N.m/s, N.m/s^2), s the time since the start
-    of the advance it is given to."""
+    """T(s) = value + rate s + curvature s^2 / 2, s the time since the start of the advance it is given to.
+
+    Parameters
+    ----------
+    value : float
+        T at the advance's start (N.m).
+    rate : float, default 0.0
+        dT/ds there (N.m/s).
+    curvature : float, default 0.0
+        d^2T/ds^2 (N.m/s^2).
+    """
 
     value: float
     rate: float = 0.0

@@ -68,7 +68,7 @@ def closed_loop(
     """
     check_times(stop_time, step)
     if not (math.isfinite(drive_limit) and drive_limit > 0):
-        raise UsageError(f"drive_limit {drive_limit!r} is not allowed: give a finite torque > 0 (N.m)")
+        raise UsageError(f"drive_limit {drive_limit!r} is not allowed: it must be a finite torque > 0 (N.m)")
     target = as_signal(setpoint, "angle", "setpoint")
     load = as_signal(disturbance, "torque", "disturbance")
     fmu_path = check_fmu(Path(fmu), "fmu") if fmu is not None else default_fmu("FemPendulum.fmu")

@@ -108,7 +108,7 @@ def failed_checks(metrics: Metrics, bounds: Mapping[str, float]) -> list[str]:
         if not isinstance(bound, numbers.Real) or isinstance(bound, bool):
             raise TypeError(f"{keyword} {bound!r} is not a number")
         if math.isnan(bound):
-            raise UsageError(f"{keyword} {bound!r} is not allowed: give a number")
+            raise UsageError(f"{keyword} {bound!r} is not allowed: it must be a number")
         name = CHECKS[keyword][0]
         if name not in metrics.values:
             why = metrics.missing.get(name, "was not measured")

@@ -28,6 +28,7 @@ from ..failures import (
     check_start_values,
     check_times,
     fidelity_choice,
+    what_to_try,
 )
 from ..run_options import DEFAULT_FMU, add_run_options
 
@@ -91,7 +92,7 @@ def command(args: argparse.Namespace) -> None:
 
     check_times(args.stop_time, args.step)
     if not (math.isfinite(args.drive_limit) and args.drive_limit > 0):
-        raise UsageError(f"--drive-limit {args.drive_limit!r} is not allowed: give a finite torque > 0 (N.m)")
+        raise UsageError(f"--drive-limit {args.drive_limit!r} is not allowed: it must be a finite torque > 0 (N.m)")
     check_fmu(args.fmu)
     check_fmu(args.controller, "--controller")
     setpoint = parse_signal(args.setpoint, "angle", "--setpoint")
@@ -112,8 +113,7 @@ def command(args: argparse.Namespace) -> None:
         raise KeyboardInterrupt
     if run.stopped is not None:
         raise IncompleteRun(
-            f"{run.stopped}. Wrote {wrote} up to there. Try a smaller drive limit or a stiffer "
-            "material, a finer mesh (model.mesh_size) or a shorter --step"
+            f"{run.stopped}. Wrote {wrote} up to there. {what_to_try(run.stopped, 'a smaller drive limit')}"
         )
     print(f"wrote {wrote}; {summary(run.table, args, setpoint)}")
 

@@ -233,6 +233,5 @@ def _typed(name: str, value: object, kind: str, written: str = "--controller-set
         return number
     except ValueError:
         allowed = {"Boolean": "true or false", "Integer": "an integer", "Enumeration": "an item's number"}
-        raise UsageError(
-            f"{written.format(name)}={value}: {value!r} is not allowed: use {allowed.get(kind, 'a finite number')}"
-        ) from None
+        must = allowed.get(kind, "a finite number")  # no range check follows, as the pendulum's scene makes
+        raise UsageError(f"{written.format(name)}={value}: {value!r} is not allowed: it must be {must}") from None

@@ -41,7 +41,7 @@ def parse_hold(text: object, option: str = "--hold") -> HoldChoice:
     """'auto' or a hold order 0, 1, 2 from text or a number; UsageError naming the value otherwise."""
     word = str(text).strip().lower()
     if word not in HOLD_CHOICES or isinstance(text, bool):
-        raise UsageError(f"{option} {text!r} is not allowed: use auto, 0 (hold), 1 (ramps) or 2 (parabolas)")
+        raise UsageError(f"{option} {text!r} is not allowed: choose one of auto, 0 (hold), 1 (ramps), 2 (parabolas)")
     return "auto" if word == "auto" else int(word)
 
 

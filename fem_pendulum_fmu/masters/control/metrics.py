@@ -129,9 +129,9 @@ def loop_metrics(table: Any, *, step_size: float, drive_limit: float, setpoint: 
     Raises UsageError for a table without the columns or rows, or a bad step_size or drive_limit.
     """
     if not (math.isfinite(step_size) and step_size > 0.0):
-        raise UsageError(f"step_size {step_size!r} is not allowed: give a finite step > 0 (s)")
+        raise UsageError(f"step_size {step_size!r} is not allowed: it must be a finite step > 0 (s)")
     if not drive_limit > 0.0:
-        raise UsageError(f"drive_limit {drive_limit!r} is not allowed: give a torque > 0 (N.m), or math.inf")
+        raise UsageError(f"drive_limit {drive_limit!r} is not allowed: it must be a torque > 0 (N.m), or math.inf")
     columns = table_columns(table)
     time = columns["time"]
     values: dict[str, float] = {}

@@ -89,9 +89,9 @@ class Signal:
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
-            raise UsageError(f"Signal kind {self.kind!r} is not allowed: use one of {', '.join(KINDS)}")
+            raise UsageError(f"Signal kind {self.kind!r} is not allowed: choose one of {', '.join(KINDS)}")
         if self.quantity not in QUANTITIES:
-            raise UsageError(f"Signal quantity {self.quantity!r} is not allowed: use one of {', '.join(QUANTITIES)}")
+            raise UsageError(f"Signal quantity {self.quantity!r} is not allowed: choose one of {', '.join(QUANTITIES)}")
         if self.kind == "table" and not (len(self.times) == len(self.values) >= 1):
             raise UsageError(f"Signal table: {len(self.times)} times and {len(self.values)} values; give as many, >= 1")
         if self.kind == "function" and not callable(self.function):
@@ -293,7 +293,7 @@ def _suffix_words(quantity: Quantity) -> str:
 
 def _check_quantity(quantity: str) -> None:
     if quantity not in QUANTITIES:
-        raise UsageError(f"quantity {quantity!r} is not allowed: use one of {', '.join(QUANTITIES)}")
+        raise UsageError(f"quantity {quantity!r} is not allowed: choose one of {', '.join(QUANTITIES)}")
 
 
 def read_signal_csv(path: Path, quantity: Quantity, name: str | None = None) -> Signal:

@@ -33,7 +33,7 @@ CURVES_UP_TO = 8  # a loop sweep's plot draws a curve per value of --y up to thi
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--fmu", type=Path, default=DEFAULT_FMU, help="the FMU `fem-pendulum build` wrote")
+    parser.add_argument("--fmu", type=Path, default=DEFAULT_FMU, help="the pendulum FMU `fem-pendulum build` wrote")
     parser.add_argument(
         "--param",
         action="append",
@@ -43,13 +43,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "also controller.NAME=V1,V2 and setpoint=S1;S2 or disturbance=S1;S2)",
     )
     parser.add_argument(
-        "--set", action="append", default=[], metavar="NAME=VALUE", help="a parameter value every sample shares"
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="start value of a pendulum parameter every sample shares (repeatable)",
     )
     parser.add_argument("--table", type=Path, help="CSV, one row a sample, columns parameter names (and torque)")
     parser.add_argument("--torque", type=Path, help="CSV time,torque for every sample (a table's torque column wins)")
     parser.add_argument("--stop-time", type=float, default=2.0, help="simulated time of every sample (s)")
     parser.add_argument("--step", type=float, default=1e-3, help="communication step = output interval (s)")
-    parser.add_argument("--outputs", default="", metavar="NAME,...", help="outputs kept in the series (default all)")
+    parser.add_argument("--outputs", default="", metavar="NAME,...", help="outputs kept in the series (default: all)")
     parser.add_argument("--workers", type=int, help="local cluster of N >= 1 worker processes (default: one per core)")
     parser.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786")
     parser.add_argument("--out", type=Path, default=Path("out") / "sweep", help="output folder (resumed if it exists)")
@@ -58,7 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--plot",
         metavar="FIGURE,...",
-        help="figures of the summary plot, one panel each (default largest_penetration; with --control "
+        help="figures of the summary plot, one panel each (default: largest_penetration; with --control "
         f"{','.join(DEFAULT_PLOT)})",
     )
     parser.add_argument("--x", help="parameter on the plot's x axis (default: the first --param)")
@@ -80,7 +84,7 @@ def _axes(items: list[str], option: str) -> list:
     axes, problems = [], []
     for item in items:
         try:
-            axes.append(samples.parse_param(item))
+            axes.append(samples.parse_param(item, "NAME=VALUE" if option == "--set" else "NAME=VALUE1,VALUE2,..."))
         except ValueError as exc:
             problems.append(f"{option} {item}: {exc}")
     if problems:
@@ -146,7 +150,9 @@ def _check(args: argparse.Namespace) -> tuple[list, SweepSettings, list[str] | N
     check_times(args.stop_time, args.step)
     check_fmu(args.fmu)
     if args.workers is not None and args.workers < 1:
-        raise UsageError(f"--workers {args.workers}: give a number of worker processes >= 1 (or leave it out)")
+        raise UsageError(
+            f"--workers {args.workers} is not allowed: it must be a number of worker processes >= 1 (or leave it out)"
+        )
     if args.out.exists() and not args.out.is_dir():
         raise UsageError(f"--out {str(args.out)!r} is a file: give a folder (made if missing)")
     loop = loop_sweep(args)

@@ -50,10 +50,10 @@ def add_loop_arguments(parser: argparse.ArgumentParser) -> None:
     add(
         "--setpoint",
         help=f"with --control: the set-point every sample tracks, as `fem-pendulum control` takes it "
-        f"(default {DEFAULT_SIGNALS['setpoint']}); an axis: --param 'setpoint=S1{SIGNAL_SEPARATOR}S2'",
+        f"(default: {DEFAULT_SIGNALS['setpoint']}); an axis: --param 'setpoint=S1{SIGNAL_SEPARATOR}S2'",
     )
-    add("--disturbance", help="with --control: the hinge torque added in every sample (N.m; default 0)")
-    limit = f"with --control: the drive's torque limit (N.m; default {DEFAULT_DRIVE_LIMIT:g})"
+    add("--disturbance", help="with --control: the hinge torque added in every sample (N.m) (default: 0)")
+    limit = f"with --control: the drive's torque limit (N.m) (default: {DEFAULT_DRIVE_LIMIT:g})"
     add("--drive-limit", type=float, help=limit)
     add("--hold", metavar="{auto,0,1,2}", help="with --control: the loop's hold order, as `fem-pendulum control`")
 

@@ -54,7 +54,7 @@ class LoopSweep:
     def spec(self) -> ControllerFmuSpec:
         """The controller FMU and its wiring, checked (masters/control/controllers.py); UsageError."""
         if not (math.isfinite(self.drive_limit) and self.drive_limit > 0):
-            raise UsageError(f"--drive-limit {self.drive_limit!r} is not allowed: give a finite torque > 0 (N.m)")
+            raise UsageError(f"--drive-limit {self.drive_limit!r} is not allowed: it must be a finite torque > 0 (N.m)")
         if not Path(self.controller).is_file():
             raise UsageError(f"--controller {str(self.controller)!r} is not an FMU file")
         return controller_fmu(Path(self.controller), self.connect)

@@ -40,33 +40,15 @@ def _problem_free(problems: list[str], what: str) -> None:
 def parse_value(name: str, text: str) -> Value:
     """Text from a grid or a table -> the value of parameter `name`, by its declared type; ValueError naming
     the parameter and what it allows."""
-    try:
-        var = interface.load().by_name(name)
-    except KeyError:
-        raise ValueError(f"{name} is not a variable of the FMU (see `fem-pendulum interface`)") from None
-    if var.causality != "parameter":
-        raise ValueError(f"{name} is an {var.causality}, not a parameter: a sweep sets parameters only")
-    text = text.strip()
-    try:
-        if var.items:
-            return text if text in var.items else var.item_name(int(text))
-        if var.type == "String":
-            return text
-        if var.type == "Boolean":
-            if text.lower() not in ("true", "false", "1", "0"):
-                raise ValueError(text)
-            return text.lower() in ("true", "1")
-        return int(text) if var.type == "Integer" else float(text)
-    except ValueError:
-        allowed = f"one of {', '.join(var.items)}" if var.items else f"a {var.type} value"
-        raise ValueError(f"{name} = {text!r} is not allowed: use {allowed}") from None
+    return interface.parse_text(interface.parameter(interface.load(), name), text.strip())
 
 
-def parse_param(item: str) -> tuple[str, list[Value]]:
-    """`NAME=V1,V2,...` (a grid axis) -> (NAME, values)."""
+def parse_param(item: str, form: str = "NAME=VALUE1,VALUE2,...") -> tuple[str, list[Value]]:
+    """`NAME=V1,V2,...` (a grid axis) -> (NAME, values); ValueError saying the `form` expected (the caller
+    names the option and the item, once)."""
     name, eq, values = item.partition("=")
     if not eq or not values.strip():
-        raise ValueError(f"--param {item!r}: expected NAME=VALUE1,VALUE2,...")
+        raise ValueError(f"expected {form}")
     return name.strip(), [parse_value(name.strip(), text) for text in values.split(",")]
 
 

@@ -36,9 +36,11 @@ from ..protocol import (
     ModelState,
     OutputDerivatives,
     Outputs,
+    PendulumModel,
     StepFailed,
     StopAt,
     check_advance_args,
+    protocol_doc,
     restore_advance_summary,
 )
 from ..scene import Scene, validate
@@ -245,7 +247,10 @@ class FemModel:
         return self.measures.contact_impulse(x0.u, x1.u, dt, trapezoid)
 
     # ---------------------------------------------------------------- protocol
-    def advance(self, t_end: float, torque: Torque, stop: StopAt | None = None) -> Outputs:
+    @protocol_doc(PendulumModel.advance)
+    def advance(self, t_end: float, torque: Torque = 0.0, stop: StopAt | None = None) -> Outputs:
+        """The scheme of solver.scheme (fem/schemes.py) under the step control of stepping.py; a failed advance
+        also puts back the held Jacobian, so that a retry continues as if it had never been tried."""
         check_advance_args(self.time, t_end, torque)
         torque = torque if isinstance(torque, TorqueProfile) else float(torque)
         held = self.newton.held
@@ -283,4 +288,4 @@ class FemModel:
         self.newton.ready = False
         self.time = state.time
         self._outputs = restore_advance_summary(state, self.measures.of(self._state, self.time, 0))
-        self.last_min_gap = self._outputs.min_gap
+        self.last_min_gap = self._outputs.gap_min

@@ -265,7 +265,7 @@ class EnergyMomentum:
     carries_acceleration = False
 
     def __init__(self, scene: Scene):
-        # compliant bodies: each step's energy balance is checked (FemModel.step)
+        # soft bodies (scene.Material.soft): each step's energy balance is checked (FemModel.step)
         self.energy_guard = scene.pendulum.soft
 
     def end_acceleration(self, xs: FemState, v1: np.ndarray, dt: float) -> None:

@@ -192,7 +192,7 @@ class ReducedModel(SteppedModel[ReducedState]):
         self._x = x = ReducedState.from_model_state(state, self.n)
         self.time = float(state.time)
         self._outputs = restore_advance_summary(state, self._compute_outputs(x, self.time, 0))
-        self.last_min_gap = self._outputs.min_gap
+        self.last_min_gap = self._outputs.gap_min
 
     def _compute_outputs(self, x: ReducedState, t: float, substeps: int) -> Outputs:
         z, p, work = x
@@ -208,15 +208,15 @@ class ReducedModel(SteppedModel[ReducedState]):
             omega=float(p[0] / m00),
             gap=gap,
             contact_force=float(np.hypot(*force)),
-            kinetic=kinetic,
-            potential=potential,
-            strain=strain,
-            contact=c_energy,
-            total=kinetic + potential + strain + c_energy,
-            torque_work=work,
-            von_mises_max=vm,
-            substeps=substeps,
-            min_gap=gap,
+            energy_kinetic=kinetic,
+            energy_potential=potential,
+            energy_strain=strain,
+            energy_contact=c_energy,
+            energy_total=kinetic + potential + strain + c_energy,
+            energy_torque_work=work,
+            stress_von_mises_max=vm,
+            solver_substeps=substeps,
+            gap_min=gap,
         )
 
     def von_mises_max(self, z: np.ndarray) -> float:

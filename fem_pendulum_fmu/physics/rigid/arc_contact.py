@@ -258,7 +258,7 @@ def penalty(arc: Arc, block: WallBlock, hk: float, pieces: list[Piece] | None = 
 # d = R (cos psi - cos phi) over |psi| <= phi, int d^2 ds = R^3 S(phi) and int d ds = R^2 C(phi), where
 # S = 2 phi + phi cos 2 phi - 3/2 sin 2 phi and C = 2 (sin phi - phi cos phi). Both cancel to high
 # powers of phi, so they are summed as their series, to the terms below 1e-20 of the first (10 terms at
-# phi = 0.5, 5 at the stiff scene's deepest contact, phi ~ 0.05):
+# phi = 0.5, 5 at the steel scene's deepest contact, phi ~ 0.05):
 # S = x^5 sum_j (-1)^j (j + 1) x^2j / (2j + 5)! with x = 2 phi, C = phi^3 sum_j (-1)^j 4 (j + 1) phi^2j / (2j + 3)!.
 SEGMENT_PHI_MAX = 0.5
 SERIES_CUT = 1e-20

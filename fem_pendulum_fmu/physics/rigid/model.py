@@ -66,8 +66,8 @@ new_state = tuple.__new__
 class RigidModel(SteppedModel[RigidState]):
     """The rigid fidelity (fidelity "rigid").
 
-    State: a RigidState (rigid/state.py). Outputs: strain energy and
-    von_mises_max are always 0 (a rigid body neither stores strain energy nor
+    State: a RigidState (rigid/state.py). Outputs: energy_strain and
+    stress_von_mises_max are always 0 (a rigid body neither stores strain energy nor
     has a stress field worth reporting). theta is reported wrapped to
     [-pi, pi] like the FE model's atan2 proxy; the internal angle is
     continuous, so energies and steps do not notice the wrap.
@@ -297,7 +297,7 @@ class RigidModel(SteppedModel[RigidState]):
     def set_state(self, state: ModelState) -> None:
         self._x, self.time = RigidState.from_model_state(state), float(state.time)
         self._outputs = restore_advance_summary(state, self._compute_outputs(self._x, self.time, 0))
-        self.last_min_gap = self._outputs.min_gap
+        self.last_min_gap = self._outputs.gap_min
 
     def fields(self) -> list[BodyField]:
         """Nodal fields of the rigid motion on the FE model's mesh of the pendulum: displacement and
@@ -322,8 +322,8 @@ class RigidModel(SteppedModel[RigidState]):
         potential = -self._mgd * math.cos(q)
         total = kinetic + potential + pen.energy
         # positional, in the order of Outputs' fields (half the cost of keywords, at every doStep):
-        # time, theta, omega, gap, contact_force, kinetic, potential, strain, contact, total,
-        # torque_work, von_mises_max, substeps, min_gap
+        # time, theta, omega, gap, contact_force, energy_kinetic, energy_potential, energy_strain,
+        # energy_contact, energy_total, energy_torque_work, stress_von_mises_max, solver_substeps, gap_min
         return Outputs(
             t,
             math.remainder(q, TWO_PI),
