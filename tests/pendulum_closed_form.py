@@ -96,11 +96,16 @@ def first_impact(scene: Scene, pendulum: Body | None = None) -> Impact:
     t1 = math.sqrt(pendulum.inertia / mgd) * float(ellipk(math.sin(theta0 / 2) ** 2))
     energy = mgd * (1 - math.cos(theta0))
     omega1 = math.sqrt(2 * energy / pendulum.inertia)
-    radius, depth = scene.geometry.head_radius, scene.geometry.head_centre_depth
-    c = 8 / 15 * scene.pendulum.thickness * scene.contact.stiffness * math.sqrt(2 * radius)
-    penetration = (energy / c) ** 0.4
-    speed = depth * omega1
-    return Impact(t1, omega1, speed, penetration, 2 * penetration / speed * HERTZ_DURATION_FACTOR)
+    deepest = penetration(scene, energy)
+    speed = scene.geometry.head_centre_depth * omega1
+    return Impact(t1, omega1, speed, deepest, 2 * deepest / speed * HERTZ_DURATION_FACTOR)
+
+
+def penetration(scene: Scene, energy: float) -> float:
+    """How deep (m) the head's outer circle presses into the wall's face with `energy` (J) in the penalty: the
+    E_c = c delta^(5/2) of the module docstring solved for delta."""
+    c = 8 / 15 * scene.pendulum.thickness * scene.contact.stiffness * math.sqrt(2 * scene.geometry.head_radius)
+    return (energy / c) ** 0.4
 
 
 def impact_times(scene: Scene, t_end: float, pendulum: Body | None = None) -> list[float]:
