@@ -89,6 +89,7 @@ def intermediate_updates(fmu: str, allowed: bool) -> dict:
     return {"calls": calls, "early": early, "t": t, "inside": inside, "messages": inst.messages}
 
 
+@pytest.mark.slow
 def test_intermediate_update_is_called_at_internal_steps_and_an_early_return_asked_there_is_granted(fmu3):
     got = child(MODULE, "intermediate_updates", str(fmu3), True)
     calls = got["calls"]
@@ -116,6 +117,7 @@ def event_run(fmu: str, event_mode: bool) -> dict:
     return {"flagged": flagged, "thetas": thetas, "events": events}
 
 
+@pytest.mark.slow
 def test_contact_onset_and_release_are_events_in_event_mode_and_change_nothing(fmu3):
     on, off = child(MODULE, "event_run", str(fmu3), True), child(MODULE, "event_run", str(fmu3), False)
     onset, release = on["flagged"]  # the first impact: 0.3376 ms long, three or four steps of 0.1 ms

@@ -24,7 +24,7 @@ so that a scanner that finds nothing cannot pass unnoticed.
 
 from __future__ import annotations
 
-import ast
+import functools
 import io
 import re
 import tokenize
@@ -83,25 +83,31 @@ def exists(cited: str, folder: Path) -> bool:
     return False
 
 
+@functools.cache
+def markdown_names() -> frozenset[str]:
+    """The names of the repository's Markdown files (its virtual environments' and git's left out)."""
+    skip = {".git", ".venv", "node_modules"}
+    return frozenset(p.name for p in ROOT.rglob("*.md") if not skip & set(p.relative_to(ROOT).parts))
+
+
 def markdown_name_exists(cited: str, folder: Path) -> bool:
-    if "/" not in cited.rstrip("/"):
-        return exists(cited, folder) or any(True for _ in ROOT.rglob(cited) if ".venv" not in _.parts)
-    return exists(cited, folder)
+    """A page by its path, or for a bare name any Markdown file of that name."""
+    return exists(cited, folder) or ("/" not in cited and cited in markdown_names())
 
 
 def python_parts(text: str) -> tuple[str, str]:
-    """(prose, words) of a Python source: its comments and docstrings; those and every string literal (what
-    can name a file, where the code's own names, such as attributes, cannot)."""
-    tokens = list(tokenize.generate_tokens(io.StringIO(text).readline))
-    comments = [tok.string for tok in tokens if tok.type == tokenize.COMMENT]
-    docs = []
-    for node in ast.walk(ast.parse(text)):
-        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
-            doc = ast.get_docstring(node, clean=False)
-            if doc:
-                docs.append(doc)
-    strings = [tok.string for tok in tokens if tok.type == tokenize.STRING]
-    return "\n".join(comments + docs), "\n".join(comments + strings)
+    """(prose, words) of a Python source: its comments and docstrings (strings that stand as statements);
+    those and every other string literal (what can name a file, where the code's own names, such as
+    attributes, cannot)."""
+    prose, strings, statement_start = [], [], True
+    for tok in tokenize.generate_tokens(io.StringIO(text).readline):
+        if tok.type == tokenize.COMMENT:
+            prose.append(tok.string)
+        elif tok.type == tokenize.STRING:
+            (prose if statement_start else strings).append(tok.string)
+        if tok.type not in (tokenize.NL, tokenize.COMMENT):
+            statement_start = tok.type in (tokenize.NEWLINE, tokenize.INDENT, tokenize.DEDENT)
+    return "\n".join(prose), "\n".join(prose + strings)
 
 
 def c_prose(text: str) -> str:
