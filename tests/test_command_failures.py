@@ -172,6 +172,7 @@ def test_an_fmu_of_another_version_than_the_installed_package_is_refused_in_one_
     assert "physics/scene.py" in said, said
 
 
+@pytest.mark.slow
 def test_run_says_what_auto_picked_and_why(fmus, tmp_path):
     """The steel scene's auto choice (physics/fidelity_rule.py), printed before the run: reduced, since
     its impacts excite vibration the 6 modes still cover (measured: up to 7350 Hz, modes to 9250 Hz)."""
