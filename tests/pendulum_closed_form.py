@@ -116,3 +116,14 @@ def impact_times(scene: Scene, t_end: float, pendulum: Body | None = None) -> li
         times.append(t)
         t += 2 * first.time + first.duration
     return times
+
+
+def deepest_in_a_driven_run(scene: Scene, total_max: float, torque_max: float, dt: float) -> float:
+    """A bound on the penetration (m) of a run driven by a torque of at most torque_max whose total energy
+    (gravity's zero at the pivot) is at most total_max at its communication points, dt apart: the swing's
+    energy above rest, m g d + total_max, plus what the torque can add within a step, torque_max times the
+    angle a step turns at up to twice that energy, all pressed into the wall."""
+    pendulum = body(scene)
+    above_rest = total_max + pendulum.gravity_moment(scene.gravity)
+    turn = math.sqrt(4 * above_rest / pendulum.inertia) * dt
+    return penetration(scene, above_rest + torque_max * turn)
