@@ -10,6 +10,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
+import pytest
 from PIL import Image
 
 from fem_pendulum_fmu.fmi.vtk_output import INDEX_NAME
@@ -21,6 +22,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import readme_figures as figures  # noqa: E402
 
 
+@pytest.mark.slow
 def test_run_animate_writes_a_gif_with_one_frame_per_output_interval(fmus, tmp_path):
     fmu, _ = fmus
     out, gif = tmp_path / "run", tmp_path / "run.gif"
@@ -77,6 +79,7 @@ def test_each_frame_states_its_pace_and_the_pivot_stays_visible():
     assert rgb[y - 2 : y + 3, x - 2 : x + 3].max() < 60  # the black marker is drawn there, on top
 
 
+@pytest.mark.slow
 def test_the_readme_figure_is_a_frame_4_ms_after_the_first_impact(fmus, tmp_path):
     readme = (ROOT / "README.md").read_text()
     assert figures.README_RUN in readme  # the script runs the README's command

@@ -12,12 +12,15 @@ import subprocess
 from pathlib import Path
 
 import fmpy
+import pendulum_closed_form as closed
 import pytest
 from fmpy import extract, read_model_description
 
+from fem_pendulum_fmu.physics.scene import Scene
+
 ROOT = Path(__file__).resolve().parents[1]
 RIGID, FEM = 2, 4  # model.fidelity items
-ONSET = 0.2394  # s, the first contact of the default scene (tests/test_fmu3_events.py)
+ONSET = closed.first_impact(Scene()).time  # s, the default scene's first contact: 239.47 ms
 
 
 @pytest.fixture(scope="module")

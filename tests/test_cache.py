@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from fem_pendulum_fmu.physics import cache
 from fem_pendulum_fmu.physics.fidelity import create
@@ -43,6 +44,7 @@ def test_processes_sharing_the_cache_never_see_a_partial_entry(tmp_path):
     assert [f.name for f in tmp_path.iterdir()] == [cache.entry_name("race", {"n": 1}, ".bin")]
 
 
+@pytest.mark.slow
 def test_cached_mesh_gives_bit_identical_results(tmp_path, monkeypatch):
     monkeypatch.setenv(cache.ENV, str(tmp_path))
     cold = [create(stiff()).advance(0.02, 0.1).theta for _ in range(2)]

@@ -58,6 +58,7 @@ def test_bad_input_is_one_line_and_exit_2(fmus, tmp_path, args, words):
     assert not list(tmp_path.glob("out*")), "nothing is written before the input is checked"
 
 
+@pytest.mark.slow
 def test_a_run_that_stops_early_writes_what_it_has_and_exits_1(fmus, tmp_path):
     (tmp_path / "torque.csv").write_text("time,torque\n0.0,-20\n1.0,-20\n")
     sets = [word for item in FAILING for word in ("--set", item)]
@@ -88,6 +89,7 @@ def test_control_checks_its_arguments_first(fmus, tmp_path):
         assert all(word in run.stderr for word in words), run.stderr
 
 
+@pytest.mark.slow
 def test_a_controller_loop_that_stops_early_writes_what_it_has_and_exits_1(fmus, tmp_path):
     """The soft pendulum on a coarse mesh in the PID loop: its hinge inverts at t = 0.781 s (measured,
     3.8 s of CPU) after the retry in two half steps; the loop ends there."""
@@ -123,6 +125,7 @@ def test_sweep_checks_its_arguments_first(fmus, tmp_path, args, words):
     assert all(word in run.stderr for word in words), run.stderr
 
 
+@pytest.mark.slow
 def test_a_sweep_with_a_failed_sample_marks_it_and_exits_1(fmus, tmp_path):
     (tmp_path / "torque.csv").write_text("time,torque\n0.0,-20\n1.0,-20\n")
     sets = [word for item in FAILING[1:] for word in ("--set", item)]  # pendulum.E is the axis
@@ -169,6 +172,7 @@ def test_an_fmu_of_another_version_than_the_installed_package_is_refused_in_one_
     assert "physics/scene.py" in said, said
 
 
+@pytest.mark.slow
 def test_run_says_what_auto_picked_and_why(fmus, tmp_path):
     """The steel scene's auto choice (physics/fidelity_rule.py), printed before the run: reduced, since
     its impacts excite vibration the 6 modes still cover (measured: up to 7350 Hz, modes to 9250 Hz)."""
@@ -181,6 +185,7 @@ def test_run_says_what_auto_picked_and_why(fmus, tmp_path):
     assert first.startswith("model.fidelity = auto picks reduced: contact ") and "Hz" in first, run.stdout
 
 
+@pytest.mark.slow
 def test_ctrl_c_ends_a_run_with_what_it_has_and_no_traceback(fmus, tmp_path):
     """SIGINT while the FE model steps (8 s into a 60 s run of about 90 s): exit 130, one line, the
     CSV up to where it stopped. Inside doStep the interrupt reaches the FMU's Python, which answers
@@ -207,6 +212,7 @@ def test_ctrl_c_ends_a_run_with_what_it_has_and_no_traceback(fmus, tmp_path):
     assert 0.0 < float(rows[-1]["time"]) < 60.0
 
 
+@pytest.mark.slow
 def test_sweep_says_what_auto_picked(fmus, tmp_path):
     run = fem_pendulum(
         "sweep", "--fmu", str(fmus[0]), "--param", "theta0=0.2,0.3", "--set", "model.fidelity=auto",

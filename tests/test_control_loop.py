@@ -33,6 +33,7 @@ def control(fmus, *args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     return subprocess.run([CLI, "control", "--fmu", str(fmus[0]), *args], cwd=cwd, capture_output=True, text=True)
 
 
+@pytest.mark.slow
 def test_the_torque_received_is_the_users_law_of_what_its_fmu_was_given(fmus, pd_fmu, tmp_path):
     connect = [word for wire in WIRES for word in ("--connect", wire)]
     run = control(

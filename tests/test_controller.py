@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pendulum_closed_form as closed
 import pytest
 
 from fem_pendulum_fmu.masters.control.command import DEFAULT_SETPOINT
@@ -45,13 +46,15 @@ def rigid_loop(fmus):
 def linear_tracking_rms() -> float:
     """RMS error of the linearised loop in steady state, without the wall (rad).
 
-    Rigid pendulum of the design's numbers (I = 0.0445 kg m^2, m g c = 1.091 * 9.81 * 0.1817
-    N.m/rad) under the PID: theta/setpoint = C(s) / (I s^2 + m g c + C(s)), C = Kp + Ki/s + Kd s."""
+    Rigid pendulum of the default scene's closed-form mass properties (tests/pendulum_closed_form.py:
+    I = 0.04451 kg m^2, m g d = 1.0912 * 9.81 * 0.18165 N.m/rad) under the PID: theta/setpoint
+    = C(s) / (I s^2 + m g d + C(s)), C = Kp + Ki/s + Kd s."""
     kp, ki, kd = 10.0, 4.0, 0.15  # the PID FMU's defaults (masters/pid/fem_pendulum_pid_entry.py)
     amplitude, frequency = math.radians(20.0), 0.75  # the default set-point, DEFAULT_SETPOINT
     w = 2j * math.pi * frequency
     c = kp + ki / w + kd * w
-    ratio = c / (0.0445 * w**2 + 1.091 * 9.81 * 0.1817 + c)
+    body = closed.body(Scene())
+    ratio = c / (body.inertia * w**2 + body.gravity_moment(Scene().gravity) + c)
     return abs(1 - ratio) * amplitude / math.sqrt(2)
 
 

@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
 
@@ -23,12 +25,14 @@ def run_pytest(example: str, fmus, tmp_path: Path) -> subprocess.CompletedProces
     return subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True)
 
 
+@pytest.mark.slow
 def test_the_users_controller_tests_pass(fmus, tmp_path):
     run = run_pytest("test_my_controller.py", fmus, tmp_path)
     assert run.returncode == 0, run.stdout + run.stderr
     assert re.search(r"\b2 passed\b", run.stdout), run.stdout
 
 
+@pytest.mark.slow
 def test_the_aggressive_controller_fails_with_the_message_the_docs_show(fmus, tmp_path):
     run = run_pytest("test_aggressive_controller.py", fmus, tmp_path)
     assert run.returncode == 1, run.stdout + run.stderr

@@ -184,6 +184,7 @@ def ssp_folder(folder: Path, fmu: Path) -> Path:
     return folder
 
 
+@pytest.mark.slow
 def test_command_line_with_an_ssp_parameter_set_matches_fmpy(fmus, tmp_path, reference):
     """`ecos simulate` on an SSP folder, parameters from its parameter set, in an environment holding only
     PATH: the FMU starts the Python recorded at build time itself. ecos's CSV writes each Real with

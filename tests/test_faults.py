@@ -111,6 +111,7 @@ BAD_PARAMETERS = [
 ]
 
 
+@pytest.mark.slow
 @isolated
 def test_invalid_parameters_are_refused_at_initialisation_naming_the_range(fmus, tmp_path):
     fmu, _ = fmus

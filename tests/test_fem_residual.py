@@ -81,6 +81,7 @@ def test_compiled_rigid_wall_term_equals_its_form_in_penetration() -> None:
         assert np.max(np.abs(compiled.FV().NumPy() - expected)) <= 1e-13 * np.max(np.abs(expected))
 
 
+@pytest.mark.slow
 def test_compiled_contact_force_and_impulse_equal_the_integrals() -> None:
     """The step control's contact force and impulse summed by the kernel at the head points against NGSolve's
     Integrate of the same laws, through the first impact: equal to 2.6e-16 of their size (measured)."""

@@ -22,6 +22,7 @@ def check(got: dict, sequences: int) -> None:
         assert reached.get(key, 0) >= sequences // 10, (key, reached)
 
 
+@pytest.mark.slow
 def test_random_fmi3_sequences_get_the_answers_the_state_machine_promises(fmu3):
     check(child(SEQUENCES, "run_sequences", str(fmu3), 100, 1), 100)
 

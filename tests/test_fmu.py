@@ -139,6 +139,7 @@ def test_fmpy_command_line_with_input_file_and_start_values(fmus, tmp_path):
     assert data["energytorque_work"][-1] == pytest.approx(pulse_work, rel=0.02)
 
 
+@pytest.mark.slow
 @isolated
 def test_theta0_in_degrees_through_the_display_unit(fmus, tmp_path):
     fmu, _ = fmus
@@ -148,6 +149,7 @@ def test_theta0_in_degrees_through_the_display_unit(fmus, tmp_path):
     assert abs(result["theta"][0] - math.radians(10.0)) < 1e-6
 
 
+@pytest.mark.slow
 @isolated
 def test_bad_input_is_refused_with_a_message_and_the_state_kept(fmus, tmp_path):
     fmu, _ = fmus
@@ -173,6 +175,7 @@ def test_bad_input_is_refused_with_a_message_and_the_state_kept(fmus, tmp_path):
     inst.close()
 
 
+@pytest.mark.slow
 @isolated
 def test_invalid_parameter_is_named_and_nothing_runs(fmus, tmp_path):
     fmu, _ = fmus

@@ -87,6 +87,7 @@ def check_growth(rss: np.ndarray) -> None:
     assert growth < GROWTH_BOUND and slope < GROWTH_BOUND, f"{growth:.1f} kB a cycle (fit {slope:.1f}); RSS kB: {trace}"
 
 
+@pytest.mark.slow
 def test_native_host_gives_the_memory_of_freed_instances_back(pendulum, cycle_host):
     folder, guid = pendulum
     run = subprocess.run(
@@ -121,6 +122,7 @@ def test_the_pid_fmu_gives_the_memory_of_freed_instances_back_in_both_hosts(pid,
         check_growth(resident_sizes(run.stdout))
 
 
+@pytest.mark.slow
 def test_fmpy_host_gives_the_memory_of_freed_instances_back(pendulum):
     folder, _ = pendulum
     run = subprocess.run(

@@ -18,7 +18,8 @@ from fem_pendulum_fmu.physics.scene import FIDELITIES, WALL_KINDS, Scene, get_pa
 ROOT = Path(__file__).resolve().parents[1]
 TEMPLATE = ROOT / interface.TEMPLATE_NAME
 
-# DESIGN.md section 7: names, causalities and types are a contract with masters and scripts
+# names, causalities, types and units are a contract with masters and scripts, which address variables by name:
+# this table writes the contract out on its own, so that a change to the template shows here
 CONTRACT = {
     "torque": ("input", "Real", "N.m"),
     "theta": ("output", "Real", "rad"),

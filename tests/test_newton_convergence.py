@@ -35,8 +35,9 @@ def test_a_slow_contraction_needs_a_correction_well_under_the_tolerance() -> Non
 
 
 def test_free_flight_steps_take_about_two_iterations() -> None:
-    """The steel swing's first 0.2 s (no contact, 200 steps of 1 ms): 2.14 iterations a step measured, where
-    taking the last correction as the error left took 3.06 (docs/fem.md, change 20); 2.5 allowed."""
+    """The steel swing's first 0.2 s (no contact, 200 steps of 1 ms): 2.14 iterations a step measured (this
+    test's counts), where a stopping test that takes the last correction as the error left takes 3.06: 2.5
+    allowed tells the two apart."""
     model = FemModel(stiff())
     steps = sum(model.advance(i * 1e-3, 0.0).substeps for i in range(1, 201))
     assert steps == 200

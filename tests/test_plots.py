@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from fem_pendulum_fmu.masters.control.figure import loop_figure, plot_loop
 from fem_pendulum_fmu.masters.control.loop import OUTPUTS, STEP_SUMMARIES, both_halves
@@ -23,6 +24,7 @@ from fem_pendulum_fmu.physics.scene import Scene
 ROOT = Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.slow
 def test_open_loop_run_records_the_torque_and_marks_every_impact(fmus, tmp_path):
     fmu, _ = fmus
     out = tmp_path / "run"

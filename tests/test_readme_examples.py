@@ -237,9 +237,9 @@ def check_ci(block: str, folder: Path) -> None:
         ".venv/bin/ruff check .",
         ".venv/bin/mypy fem_pendulum_fmu",
         '.venv/bin/mkdocs build --strict --site-dir "$(mktemp -d)"',  # the README: it builds the documentation
-        ".venv/bin/pytest -q",
     ):
         assert line in lines, line
+    assert any(line.startswith(".venv/bin/pytest -q") for line in lines), lines  # the whole suite, in any workers
     assert "`bash .ci/run` deletes `.venv` and builds it again" in " ".join(readme().split())
 
 
@@ -270,8 +270,11 @@ def check_field_output(folder: Path, run: subprocess.CompletedProcess[str]) -> N
 
 
 def check_controller(folder: Path, run: subprocess.CompletedProcess[str]) -> None:
-    # the printed line and out/control.csv against the figures the README states; 6 s
+    # the printed line and out/control.csv against the figures the README states and the loop's physics; 6 s
+    import pendulum_closed_form as closed
+
     from fem_pendulum_fmu.masters.control.figure import wall_impacts
+    from fem_pendulum_fmu.physics.scene import Scene
 
     stated = re.search(
         r"(\d+) rebounds in the first such half-period, (\d+) wall impacts in\s+all and an RMS tracking error of "
@@ -285,16 +288,27 @@ def check_controller(folder: Path, run: subprocess.CompletedProcess[str]) -> Non
         run.stdout.strip(),
     )
     assert line, run.stdout
-    assert abs(float(line.group(1)) - float(stated.group(3))) < 0.1, line.group(0)  # measured 9.03 deg
+    # The bouncing is chaotic: its figures move with the arithmetic's last bits. Measured with `--set
+    # solver.tolerance=T` added to the README's command, T = 1e-3 (the default), 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5:
+    # RMS 8.93-9.10 deg; 17, 19, 15, 17, 20, 15, 16 impacts, and 16, 17, 14, 16, 19, 14, 15 rebounds while the
+    # set-point is negative (2/3 s to 4/3 s). The ranges are the measured ones widened by 3 either way.
+    assert abs(float(line.group(1)) - float(stated.group(3))) < 0.2, line.group(0)
     assert (folder / "out" / "control.png").stat().st_size > 0
     metrics = json.loads((folder / "out" / "control.json").read_text())["metrics"]
-    assert metrics["impacts"]["value"] == int(line.group(2)) == int(stated.group(2))  # measured 17
     data = np.genfromtxt(folder / "out" / "control.csv", delimiter=",", names=True)
-    assert abs(data["time"][-1] - 2.0) < 1e-9
     impacts = wall_impacts(data)
-    # the set-point is negative from 2/3 s to 4/3 s: measured 16 rebounds then (17 in all)
     during = impacts[(impacts > 0.66) & (impacts < 1.34)]
-    assert abs(len(during) - int(stated.group(1))) <= 1, impacts
+    assert metrics["impacts"]["value"] == int(line.group(2)) and abs(data["time"][-1] - 2.0) < 1e-9
+    assert 12 <= int(line.group(2)) <= 23 and 12 <= int(stated.group(2)) <= 23, (line.group(0), impacts)
+    assert 11 <= len(during) <= 22 and 11 <= int(stated.group(1)) <= 22, (stated.group(0), impacts)
+    # every swing while the set-point is negative ends on the wall, none while it is positive
+    assert np.all(np.diff(during) < 0.1) and not np.any((impacts > 0.1) & (impacts < 0.66)), impacts
+    # the energy balance (measured 6e-10 to 3.9e-9 J), and no deeper into the wall than the most energetic swing
+    # and the drive can press the head (measured 49.4-49.5 um against a bound of about 75 um)
+    balance = data["energytotal"] - data["energytotal"][0] - data["energytorque_work"]
+    assert np.max(np.abs(balance)) < 1e-6 and metrics["energy_error"]["value"] < 1e-6, metrics["energy_error"]
+    drive = (float(np.max(data["energytotal"])), float(np.max(np.abs(data["torque"]))), 1e-3)
+    assert 0.0 < -np.min(data["gap_min"]) <= closed.deepest_in_a_driven_run(Scene(), *drive), np.min(data["gap_min"])
 
 
 def check_my_controller(folder: Path, run: subprocess.CompletedProcess[str]) -> None:

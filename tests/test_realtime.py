@@ -57,6 +57,7 @@ def test_a_slow_step_overruns_and_the_schedule_stays_fixed():
     assert "the slowest step took 5 ms" in report
 
 
+@pytest.mark.slow
 def test_run_realtime_prints_the_pacing(fmus, tmp_path):
     command = [str(Path(sys.executable).parent / "fem-pendulum"), "run", "--fmu", str(fmus[0])]
     run = subprocess.run(

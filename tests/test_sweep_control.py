@@ -118,6 +118,7 @@ def test_a_table_of_the_same_samples_finds_them_done(tuned, fmus, tmp_path, monk
     pd.testing.assert_frame_equal(pd.read_parquet(out / store.RESULTS), table, check_exact=True)
 
 
+@pytest.mark.slow
 def test_failed_loop_samples_are_error_rows_and_the_rest_run(fmus, tmp_path, capsys):
     """A table: a loop the pendulum stops at once, an invalid modulus, a set-point from a CSV file
     beside the table (a ramp to 0.1 rad at 0.2 s, held)."""

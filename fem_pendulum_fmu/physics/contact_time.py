@@ -60,7 +60,7 @@ def body_stiffness(E: float, nu: float, thickness: float) -> float:
     """E h / (1 - nu^2) (N/m): the order of the stiffness a plane-stress body of thickness h offers a load
     pressed on its face, which acts in series with the penalty. Steel's is 40 times the default penalty's
     (its contacts last 1 % longer for it); rubber's is 1/5000 of it, and its contacts last about ten times
-    the penalty's estimate (docs/fem.md, change 26)."""
+    the penalty's estimate."""
     return E * thickness / (1.0 - nu * nu)
 
 

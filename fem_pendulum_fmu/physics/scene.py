@@ -140,7 +140,7 @@ SOFT_ORDER, STIFF_ORDER = 3, 2
 
 def element_order(scene: Scene) -> int:
     """model.order, or for 0 (auto) the order the pendulum's material needs: order 2 puts a rubber
-    pendulum's gap 3 mm off through an impact, order 3 within 1 mm (benchmarks/mesh_study.py, docs/fem.md);
+    pendulum's gap 3 mm off through an impact, order 3 within 1 mm (benchmarks/mesh_study.py --preset compliant);
     for steel order 2 is within 0.5 % of order 3 at a third of the cost."""
     if scene.model.order != AUTO_ORDER:
         return scene.model.order
@@ -173,7 +173,7 @@ def rubber(**values: Any) -> Scene:
 
     model.order auto (element_order) gives it order-3 elements: the coarsest discretisation whose angle
     and gap stay within 0.5 degree and 1 mm of a fine reference through an impact
-    (benchmarks/mesh_study.py --preset rubber, docs/fem.md)."""
+    (benchmarks/mesh_study.py --preset rubber)."""
     return _preset(_rubber(), values)
 
 
@@ -265,7 +265,7 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
 }
 _INT_RANGES = {
     "model.threads": (1, 64),
-    "model.modes": (1, 200),  # order 1: see docs/fem.md
+    "model.modes": (1, 200),
     "solver.max_substeps": (0, 10**9),
 }
 _CHOICES: dict[str, tuple[str, ...]] = {"wall.kind": WALL_KINDS, "model.fidelity": FIDELITIES, "solver.scheme": SCHEMES}
@@ -336,6 +336,8 @@ def _range_problems(scene: Scene) -> list[str]:
         value = get_path(scene, name)
         if isinstance(value, bool) or not isinstance(value, int) or not ilo <= value <= ihi:
             found.append(f"parameter {name} = {value!r} is not allowed: it must be an integer in [{ilo}, {ihi}]")
+    # order 1 is refused: linear elements on the curved mesh lose the pendulum's angle (released at 0.349 rad,
+    # theta is down to 0.04 rad within 20 ms)
     order = scene.model.order
     if isinstance(order, bool) or not isinstance(order, int) or not (order == AUTO_ORDER or 2 <= order <= 5):
         found.append(

@@ -26,10 +26,9 @@ The rule, in words (it is what `solver.max_step` and `solver.tolerance` mean):
   divide the time left in the advance equally, and a step keeps the last
   one's size while that is no longer than the contact's step and at least
   `STEP_KEPT` of it. The contact's step, re-estimated at every step from
-  the vibrating body's closest point, jumped by 20 to 50 % from one step to
-  the next on the rubber scene (with the penalty's duration alone, before
-  the bodies' stiffness counted); taken as it came, nearly every step of a
-  soft contact refactorised the Jacobian (docs/fem.md, change 26);
+  the vibrating body's closest point, can jump by 20 to 50 % from one step
+  to the next on the rubber scene; taken as it comes, nearly every step of
+  a soft contact would refactorise the Jacobian;
 * a held contact takes free-flight steps again, with no onset location: one
   whose hold exceeds `HELD_CONTACTS` estimated contact durations and whose
   force is no more than `HELD_FORCE` times what the torque and gravity can

@@ -2,10 +2,10 @@
 
 In an impact the held Jacobian, assembled in free flight, lacks the penalty's
 stiffness, which at a contact's 20 us steps is of the order of the inertia's
-at the head: the iterations contracted by 1/20 to 1/50 where a Jacobian
-with the contact in it contracts by 1e-4, and on rubber the held Jacobian was
-re-assembled for nearly every change of the contact set (docs/fem.md,
-change 29). The contact term's Jacobian is small and simple: at each listed
+at the head: without it the iterations contract by 1/20 to 1/50 where a
+Jacobian with the contact in it contracts by 1e-4, and on rubber the held
+Jacobian would be re-assembled for nearly every change of the contact set.
+The contact term's Jacobian is small and simple: at each listed
 head point it is c g g^T in the point's position X + E u
 (core/fem_rigid_contact.c, femp_rigid_contact_stiffness), so on the unknowns V
 of the contact set's elements (both components of their basis functions,
@@ -35,7 +35,7 @@ def use_contact_update(scene: Scene) -> bool:
     (scene.Material.soft), whose penalty is thousands of times the body's own stiffness (rubber: 10 %
     fewer instructions over 2 s, 59 % fewer Jacobians). On steel, whose body is 40 times stiffer than
     the penalty, the held Jacobian without the contact takes one iteration more a contact step, and the
-    update cost what it saved (+0.3 % over 2 s, +2 % on the 0.005 m mesh; docs/fem.md, change 29)."""
+    update costs more than it saves (+0.3 % over 2 s, +2 % on the 0.005 m mesh)."""
     return scene.pendulum.soft
 
 

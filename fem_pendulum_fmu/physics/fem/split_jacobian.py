@@ -17,9 +17,8 @@ class SplitJacobian:
     """The energy-momentum step form's Jacobian at w, as the entries of a matrix on a CSC pattern of the
     free unknowns (the full form's, lu.HeldFactor.pattern_of): the linear terms' matrices scaled by
     the step's factors, the stress term's tangent from the kernel at the residual's own points, NGSolve's
-    linearisation only for the rigid-wall contact while head elements are in its set. NGSolve's assembly
-    of the full form took 4.9-5.7 ms on the rubber scene's mesh, nearly all of it the stress term
-    (docs/fem.md, "Jacobians and factors in the kernel")."""
+    linearisation only for the rigid-wall contact while head elements are in its set. The stress term is
+    nearly all of NGSolve's assembly of the full form, 4.9-5.7 ms on the rubber scene's mesh."""
 
     def __init__(
         self,
