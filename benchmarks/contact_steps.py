@@ -23,7 +23,7 @@ rule of physics/stepping.py as it is). For each count it prints:
 
 The latency ratios are those of the model alone, without the FMU's own cost per
 doStep, which adds the same to every doStep and so lowers the ratios a little
-(docs/latency.md has them through the FMU). Timings are wall times in one
+(docs/notes/latency.md has them through the FMU). Timings are wall times in one
 process: run it on a quiet machine.
 """
 

@@ -17,11 +17,11 @@ left to SuperLU: measures of cost that load does not disturb), and the
 accuracy figures (theta at the end,
 the largest energy error over the swing energy) so that a faster run can be
 checked to be the same run. With --profile N it runs once under cProfile and
-prints the N entries with the most internal time (the profile of docs/fem.md),
+prints the N entries with the most internal time (the profile of docs/notes/fem.md),
 then NGSolve's own timers of that run with the most time (calls and seconds:
 residuals, assemblies, factorisations, contact pairs). With --impacts as well,
 the profile is of the impact doSteps alone (those of more than two internal
-steps), and their wall times are printed (docs/fem.md, "Each change and what
+steps), and their wall times are printed (docs/notes/fem.md, "Each change and what
 it bought").
 """
 

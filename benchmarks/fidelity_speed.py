@@ -71,7 +71,7 @@ def main(argv: list[str] | None = None) -> None:
         type=float,
         default=0.6,
         help="compare with fem up to this time (s): before the second impact, after which both "
-        "models' results depend on the phase of an unresolved vibration (docs/reduced.md)",
+        "models' results depend on the phase of an unresolved vibration (docs/notes/reduced.md)",
     )
     args = p.parse_args(argv)
     if not args.fmu.exists():

@@ -5,7 +5,7 @@
 A model of the scene (on the mesh of --mesh-size, model.mesh_size; 0: the scene's default) is advanced
 50 ms in 1 ms steps; then femp_stress_residual (every body, at the solver's current iterate) and the held
 factors' solve (HeldFactor.solve, the compiled one) are each called `calls` times in a loop, `repeat`
-times; the best loop's time per call is printed, in microseconds (docs/fem.md, change 24). It needs the
+times; the best loop's time per call is printed, in microseconds (docs/notes/fem.md, change 24). It needs the
 compiled kernels (native.py): without a C compiler it says so and exits with 1.
 """
 

@@ -1,4 +1,4 @@
-"""Measurements behind docs/robustness.md.
+"""Measurements behind docs/notes/robustness.md.
 
 python benchmarks/robustness.py hard-cases [-k EXPR]
     runs tests/test_hard_cases.py with FEM_PENDULUM_ROBUSTNESS_LOG set (the tests record their
@@ -10,7 +10,7 @@ python benchmarks/robustness.py leak --fmu dist/FemPendulum.fmu
     resident memory over 60 instances refused at initialisation (mesh too fine, nu = 0.5)
     against 60 valid ones, each freed with fmi2FreeInstance
 python benchmarks/robustness.py findings
-    the measurements behind the findings of docs/robustness.md: Gauss points of the discrete
+    the measurements behind the findings of docs/notes/robustness.md: Gauss points of the discrete
     gradient (steel after violent impacts, rubber after a pulse, cost on the default run),
     penetration against the square wave's period, step-sequence sensitivity after a second impact
 """

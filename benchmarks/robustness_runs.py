@@ -3,7 +3,7 @@
     python benchmarks/robustness_runs.py memory MESH_SIZE ORDER
         peak resident memory growth of building the FE model and one step (cache off): one JSON line
     python benchmarks/robustness_runs.py finding WHAT [ARG]
-        one measurement behind the findings of docs/robustness.md (WHAT: gauss-violent, gauss-rubber,
+        one measurement behind the findings of docs/notes/robustness.md (WHAT: gauss-violent, gauss-rubber,
         gauss-default with ARG Gauss points; quadrature with ARG a variant; resting-tolerance;
         penetration; sequence): JSON lines
     python benchmarks/robustness_runs.py leak FMU KIND

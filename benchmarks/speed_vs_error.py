@@ -44,7 +44,7 @@ ROOT = Path(__file__).resolve().parents[1]
 REFERENCES = ROOT / "benchmarks" / "references"
 RESULTS = ROOT / "benchmarks" / "results" / "speed_vs_error.jsonl"
 RUNS = Path(os.environ.get("SPEED_VS_ERROR_RUNS", Path(tempfile.gettempdir()) / "speed_vs_error_runs"))
-DOC = ROOT / "docs" / "speed_vs_error.md"
+DOC = ROOT / "docs" / "notes" / "speed_vs_error.md"
 COMM_STEP = 1e-3
 SWING_DEG = 20.0  # swing energy: the 20-degree swing every scene is about
 REBOUND_SPEED = 0.02  # rad/s: a rebound turns omega from faster than this towards the wall
@@ -95,7 +95,7 @@ class Setting:
 
 SEED_FIXED = "seed Newmark, fixed dt"
 SEED_GAP = "seed Newmark, gap rule"
-# The convergence check of the references, as stated in docs/speed_vs_error.md: max |theta_L1 - theta_L2|
+# The convergence check of the references, as stated in docs/notes/speed_vs_error.md: max |theta_L1 - theta_L2|
 # before the second impact (the measured values: steel 3.2e-4, rubber 1.05e-3, deformable wall 3.2e-5
 # over its whole 0.5 s; controller 6.7e-3 because L1's order-3 head starts 6 um inside the wall it
 # touches at theta0 = 0 and is kicked off it, while the default mesh agrees with L2 to 1.6e-4).
@@ -336,7 +336,7 @@ def early_window(ref: dict) -> int:
 
     After the first impact the steel plate vibrates at about 1 kHz, and the second
     impact's outcome depends on that vibration's phase, which no affordable
-    discretisation resolves over half a second (docs/speed_vs_error.md): errors up
+    discretisation resolves over half a second (docs/notes/speed_vs_error.md): errors up
     to the second impact measure the discretisation, later ones mostly that phase."""
     reb = rebounds(ref["omega"], ref["gap"])
     return int(reb[1]) - 1 if len(reb) > 1 else len(ref["theta"])
@@ -421,7 +421,7 @@ def fmus_from(args, tmp: Path) -> tuple[Path, Path]:
 
 def code_version() -> str:
     """The checkout's commit when the row was measured (+ "dirty" with uncommitted changes); the FMU
-    given with --fmu may have been built earlier (docs/speed_vs_error.md says from what)."""
+    given with --fmu may have been built earlier (docs/notes/speed_vs_error.md says from what)."""
     try:
         head = subprocess.run(
             ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
@@ -628,7 +628,7 @@ def sweep(args, fmus) -> None:
 # Accuracy a fidelity's default settings must reach on the scenes it is meant for (quick mode, tests),
 # in max |theta - theta_ref| before the reference's second impact (early_window: later, the phase of
 # the steel plate's 1 kHz vibration decides, which not even the references agree on): the
-# target where it is met, else the bound docs/speed_vs_error.md states (measured value + 50 %).
+# target where it is met, else the bound docs/notes/speed_vs_error.md states (measured value + 50 %).
 THETA_TARGET = 1e-3  # rad
 ENERGY_TARGET = 1e-3  # of the swing energy
 THETA_BOUNDS = {("fem", "rubber"): 1.7e-3}  # measured 1.1e-3 to 1.5e-3 (round-off moves it; L1 -> L2 differ by 1.05e-3)

@@ -1,12 +1,12 @@
-"""Tables and work-precision plots of docs/speed_vs_error.md from the benchmark's results.
+"""Tables and work-precision plots of docs/notes/speed_vs_error.md from the benchmark's results.
 
     python benchmarks/speed_vs_error.py report
 
 Scores every row of benchmarks/results/speed_vs_error.jsonl against the stored
 references (from the run's saved samples when they are on this machine, else
 the metrics stored with the row), writes the scores back into the results
-file, replaces the generated part of docs/speed_vs_error.md (between its
-markers) and draws docs/speed_vs_error_theta.png and _energy.png.
+file, replaces the generated part of docs/notes/speed_vs_error.md (between its
+markers) and draws docs/notes/speed_vs_error_theta.png and _energy.png.
 """
 
 from __future__ import annotations

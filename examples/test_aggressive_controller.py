@@ -1,5 +1,5 @@
 """A controller test that fails on purpose: `pytest examples/test_aggressive_controller.py` shows what
-a failed check says (docs/controller_testing.md quotes it).
+a failed check says (docs/guide/controller_testing.md quotes it).
 
 The controller drives the pendulum into the wall at theta = 0 with a stiff gain and no damping, so
 the head bangs the wall again and again.

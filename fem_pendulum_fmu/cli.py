@@ -55,7 +55,7 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
         type=int,
         choices=(2, 3),
         default=2,
-        help="2: the FMI 2.0 FMU and PidController.fmu beside it; 3: the FMI 3.0 FMU (docs/fmu3.md)",
+        help="2: the FMI 2.0 FMU and PidController.fmu beside it; 3: the FMI 3.0 FMU (docs/reference/fmi3.md)",
     )
     parser.add_argument("--no-controller", action="store_true", help="do not build PidController.fmu")
 

@@ -35,7 +35,7 @@ OK, WARNING, DISCARD, ERROR, FATAL, PENDING = range(6)
 STATUS = ("ok", "warning", "discard", "error", "fatal", "pending")
 # fmi2StatusKind
 DO_STEP_STATUS, PENDING_STATUS, LAST_SUCCESSFUL_TIME, TERMINATED = range(4)
-# the four states the FMUs can be in (docs/fmu.md; the names of the standard's section 4.2.4)
+# the four states the FMUs can be in (docs/reference/fmi2.md; the names of the standard's section 4.2.4)
 STATES = ("instantiated", "initializationMode", "stepComplete", "terminated")
 FILL = 0xAB  # what a host buffer holds before the FMU writes into it
 

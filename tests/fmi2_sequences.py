@@ -17,7 +17,7 @@ status functions do. This module checks that promise from outside, as a C master
   native host), restarts it after a crash, and `minimise` shrinks a failing sequence to a short
   reproducer.
 
-The contract as judged here (docs/fmu.md, "The FMI 2.0 contract"; an instance's states: instantiated,
+The contract as judged here (docs/reference/fmi2.md, "The FMI 2.0 contract"; an instance's states: instantiated,
 initializationMode, stepComplete, terminated; stepFailed is never entered: a discarded step leaves the
 model as before it):
 
@@ -53,7 +53,7 @@ model as before it):
   state taken in terminated by any instance not terminated; an instance without a model (instantiated,
   initializationMode) takes a state taken before initialisation and stays where it is, with the state's
   parameters, inputs and time, and a state taken after initialisation puts it in stepComplete with the
-  state's parameters, model and time (docs/fmu.md, "Setting an FMU state"). The PID FMU declares
+  state's parameters, model and time (docs/reference/fmi2.md, "Setting an FMU state"). The PID FMU declares
   canGetAndSetFMUstate="false": all six state functions answer fmi2Error there.
 - getBooleanStatus(fmi2Terminated) is fmi2True in terminated, and after the same step (time, size,
   torque) was discarded twice running (a deterministic model repeats a Discard for ever); the
@@ -99,7 +99,7 @@ STEPPED = frozenset({OK, WARNING, DISCARD})
 REFUSED = frozenset({ERROR})
 ANY = frozenset({OK, WARNING, DISCARD, ERROR})
 NO_STATUS = frozenset({DISCARD})  # what the status functions answer for a status the FMU cannot give
-UNAVAILABLE = NO_STATUS  # a status kind that is not this function's (docs/fmu.md: fmi2Discard)
+UNAVAILABLE = NO_STATUS  # a status kind that is not this function's (docs/reference/fmi2.md: fmi2Discard)
 
 INSTANTIATED, INIT, STEP, TERMINATED = "instantiated", "initializationMode", "stepComplete", "terminated"
 MACHINE_STATES = (INSTANTIATED, INIT, STEP, TERMINATED)
@@ -521,7 +521,7 @@ def same_parameters(fmu: FmuInfo, a: dict[str, Any], b: dict[str, Any]) -> bool:
 
 
 def deserialise_rule(inst: Instance, buf: Buffer) -> tuple[frozenset, str]:
-    """What fmi2DeSerializeFMUstate of the serialised state `buf` may answer in `inst` (docs/fmu.md, FMU
+    """What fmi2DeSerializeFMUstate of the serialised state `buf` may answer in `inst` (docs/reference/fmi2.md, FMU
     states): an instance without a model takes any state of its FMU; an initialised one only a state
     taken with the same parameter values (so the same fidelity and mesh)."""
     snap = buf.snapshot
@@ -540,7 +540,7 @@ def deserialise_rule(inst: Instance, buf: Buffer) -> tuple[frozenset, str]:
         ]
         return REFUSED, f"fmi2DeSerializeFMUstate into an initialised instance of a state taken with {differ[0]}"
     if not snap.has_model:
-        # docs/fmu.md says both: the payload check (same parameter values: accepted) and, in its table of
+        # docs/reference/fmi2.md says both: the payload check (same parameter values: accepted) and, in its table of
         # status codes, that SetFMUstate refuses such a state; the binary refuses it here already
         return frozenset({OK, WARNING, ERROR}), "fmi2DeSerializeFMUstate of a state taken before initialisation"
     return SUCCESS, f"fmi2DeSerializeFMUstate of a state with the instance's parameters ({inst.state})"

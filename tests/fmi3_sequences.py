@@ -1,6 +1,6 @@
 """Random FMI 3.0 co-simulation call sequences through fmpy's FMU3Slave, judged by the FMI 3.0 state machine.
 
-The FMI 3.0 FMU's binary (fem_pendulum_fmu/fmi/shim/fmi3_*.c, docs/fmu3.md) promises, as the FMI 2.0
+The FMI 3.0 FMU's binary (fem_pendulum_fmu/fmi/shim/fmi3_*.c, docs/reference/fmi3.md) promises, as the FMI 2.0
 one does (tests/fmi2_sequences.py, its larger sibling through a C host): each call is answered as the
 table of shim/fmi3_calls.h says for the instance's state (instantiated, initializationMode, eventMode,
 stepMode, terminated), a refused call answers fmi3Error with an error-level log message (debug logging
@@ -130,7 +130,7 @@ class Sequence:
         ok = self.oracle.state in states
         if self.judge(call, {OK} if ok else {ERROR}, action) == OK and after is not None:
             self.oracle.state = after
-            if call == "reset":  # the states taken before stay valid (docs/fmu.md, Life cycle)
+            if call == "reset":  # the states taken before stay valid (docs/reference/fmi2.md, Life cycle)
                 self.oracle.time, self.oracle.torque = 0.0, 0.0
             if call == "enterInitializationMode":  # the same parameters in every life: every state fits
                 fidelity = [self.vr["model.fidelity"]]
@@ -221,7 +221,7 @@ class Sequence:
 
     def set_state(self, entry: tuple, live: bool) -> None:
         """fmi3SetFMUState of a state handed out (freed unless `live`). Every state of this FMU fits: the
-        parameters are the same in every sequence (docs/fmu.md, FMU states); where it may be set and the state
+        parameters are the same in every sequence (docs/reference/fmi2.md, FMU states); where it may be set and the state
         after are the table's (Oracle.restored)."""
         o = self.oracle
         handle, t, torque, taken = entry

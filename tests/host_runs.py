@@ -85,7 +85,7 @@ def original(fmu: str, state_file: str, fidelity: str) -> list[list[float]]:
 
 def restored(fmu: str, state_file: str, fidelity: str) -> list[list[float]]:
     """A fresh instance set to the saved state right after fmi2Instantiate, which puts it in stepComplete
-    (docs/fmu.md, "Setting an FMU state"), then the same ten steps, never initialised."""
+    (docs/reference/fmi2.md, "Setting an FMU state"), then the same ten steps, never initialised."""
     slave, vr, _ = instance(fmu, "restored")
     slave.setInteger([vr["model.fidelity"]], [1 if int(fidelity) != 1 else 2])  # replaced by the state's
     slave.setFMUstate(slave.deSerializeFMUstate(Path(state_file).read_bytes()))

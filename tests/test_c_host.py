@@ -2,7 +2,7 @@
 
 The FMU's binary (fem_pendulum_fmu/fmi/shim) starts the Python recorded
 at build time; the host loads, steps, saves and restores a state, frees the
-instance, unloads the library and exits with 0 (docs/fmu.md says what crashed
+instance, unloads the library and exits with 0 (docs/notes/fmu_layer.md says what crashed
 here before).
 """
 

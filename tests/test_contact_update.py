@@ -126,7 +126,7 @@ def _first_contact(monkeypatch: pytest.MonkeyPatch, update: bool) -> tuple[int, 
 
 def test_a_rubber_contact_takes_fewer_jacobians_with_the_update(monkeypatch: pytest.MonkeyPatch) -> None:
     """The rubber's first contact: 663 iterations and 36 Jacobians with the update, 715 and 100 with a
-    held Jacobian re-assembled with the contact (docs/fem.md, changes 29 and 30); a fifth fewer Jacobians
+    held Jacobian re-assembled with the contact (docs/notes/fem.md, changes 29 and 30); a fifth fewer Jacobians
     at least, and no more iterations."""
     with_update, without = _first_contact(monkeypatch, True), _first_contact(monkeypatch, False)
     assert with_update[1] <= 0.8 * without[1]

@@ -19,7 +19,7 @@ from fem_pendulum_fmu.testing import closed_loop
 
 CLI = str(Path(sys.executable).parent / "fem-pendulum")
 REFERENCE_STEP = 2e-4
-# the PID FMU tracking a sine with no wall, so no impact decides the error (docs/coupling.md says why)
+# the PID FMU tracking a sine with no wall, so no impact decides the error (docs/notes/coupling.md says why)
 LOOP = dict(
     controller="pid", setpoint="sine:20deg,0.75", stop_time=1.0, fidelity="rigid", pendulum={"wall.kind": "none"}
 )

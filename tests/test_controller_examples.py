@@ -1,6 +1,6 @@
 """The controller test files of examples/ run under pytest as a user runs them: the fixture
 `pendulum_loop` comes from the installed package's pytest plugin (entry point pytest11), the passing
-file passes, and the failing one fails with the message docs/controller_testing.md shows."""
+file passes, and the failing one fails with the message docs/guide/controller_testing.md shows."""
 
 from __future__ import annotations
 
@@ -42,6 +42,6 @@ def test_the_aggressive_controller_fails_with_the_message_the_docs_show(fmus, tm
     assert [line.split(" = ")[0] for line in checks] == ["rms_error", "max_contact_force", "impacts"], checks
     assert all("above the bound" in line for line in checks), checks
     assert "def assert_loop" not in run.stdout  # pytest hides the library's frames
-    docs = (ROOT / "docs" / "controller_testing.md").read_text()
+    docs = (ROOT / "docs" / "guide" / "controller_testing.md").read_text()
     for line in checks:
         assert line in docs, line

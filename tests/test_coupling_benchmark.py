@@ -1,5 +1,5 @@
 """benchmarks/coupling.py --quick: the coupling error of the PID loop and of the open-loop sine against
-their 0.2 ms references, by hold order (docs/coupling.md has the full run). It asserts accuracy only
+their 0.2 ms references, by hold order (docs/notes/coupling.md has the full run). It asserts accuracy only
 (no timing), and the master-side helpers of fem_pendulum_fmu/masters/coupling.py."""
 
 from __future__ import annotations

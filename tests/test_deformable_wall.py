@@ -2,7 +2,7 @@
 face, and the energy balance during contact.
 
 One run of the coarsest mesh at order 3 (where the reported energy used to be off by up to 6 % of the
-swing energy, docs/speed_vs_error.md) through the first impact, sampled every 0.5 ms before it and every
+swing energy, docs/notes/speed_vs_error.md) through the first impact, sampled every 0.5 ms before it and every
 50 us across it, serves the tests below.
 """
 
@@ -77,7 +77,7 @@ def test_gap_is_the_distance_to_the_deformed_face(impact):
 @pytest.mark.slow
 def test_energy_balances_during_contact(impact):
     """E - E0 - W during the impact stays within 1e-3 of the swing energy: measured 3.1e-4, and 6.0e-5
-    after it (the pairs found anew at each step's start, docs/fem.md "Deformable wall"). The midpoint
+    after it (the pairs found anew at each step's start, docs/notes/fem.md "Deformable wall"). The midpoint
     contact force, inexact for face points entering the contact within a step, gave 1.1e-3; the old
     outputs (contact energy on the head's points against a mislocated face) 8.1e-2."""
     _, rows, _, _ = impact

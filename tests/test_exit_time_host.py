@@ -7,7 +7,7 @@ the library's handler, which terminates and frees both instances, as a C/C++ lib
 from an atexit() handler registered after the instances (it runs before the handlers the FMU binaries
 registered), one registered before them (it runs after), or the library's ELF destructor (after every atexit()
 handler). The FMU binary must answer without touching the finalised Python: fmi2Terminate fmi2Error,
-fmi2FreeInstance nothing (docs/fmu.md); the binary built from pythonfmu's had the process die of SIGSEGV in
+fmi2FreeInstance nothing (docs/reference/fmi2.md); the binary built from pythonfmu's had the process die of SIGSEGV in
 PyGILState_Ensure there, in every run. A run takes about a second.
 """
 

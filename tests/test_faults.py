@@ -192,6 +192,6 @@ def test_random_torques_and_steps_never_crash_the_rigid_model(schedule, theta0, 
 )
 def test_random_torques_and_steps_never_crash_the_fe_model(schedule, theta0):
     """Released outside the wall: theta0 < 0 starts the head inside the block, and releasing that
-    penalty energy (18 kJ at 7.5 mm) is an explosion, not an operating point (docs/robustness.md)."""
+    penalty energy (18 kJ at 7.5 mm) is an explosion, not an operating point (docs/notes/robustness.md)."""
     model = create(stiff(**{**COARSE, "theta0": theta0}))
     _energy_check(model, schedule, 1e-5, 1e-9)  # floor: the Newton tolerance

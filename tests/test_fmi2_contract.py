@@ -3,7 +3,7 @@
 The contract: which call is allowed in which state (anything else answers fmi2Error, logs a message naming
 the call and the state and changes nothing), the GUID check, the FMU state functions, no fmi2Fatal
 whatever the slave's Python code raises, fmi2Discard with the state kept, the status functions and
-fmi2Reset. docs/fmu.md describes it; tests/fmi2_raw.py calls the FMU's functions raw, so that every
+fmi2Reset. docs/reference/fmi2.md describes it; tests/fmi2_raw.py calls the FMU's functions raw, so that every
 status is seen. The pendulum runs its rigid fidelity (model.fidelity = 2) unless a case needs the FE
 model (model.mesh_size 0.06, the coarsest mesh).
 
@@ -804,7 +804,7 @@ def test_a_new_instance_set_to_a_saved_state_steps_on_without_initialisation_bit
 
 def resume_rules_child(path: str) -> dict:
     """States taken before initialisation, while stepping and once terminated, set into instances in each
-    state (docs/fmu.md, "Setting an FMU state")."""
+    state (docs/reference/fmi2.md, "Setting an FMU state")."""
     fmu = fmi2_raw.Fmu(path)
     early = fmi2_raw.Instance(fmu, "early")  # a state of a new instance: its parameters and start time
     changed = early.set_named(**RIGID, theta0=0.2)

@@ -1,4 +1,4 @@
-"""The FMUs' FMI 2.0 contract (docs/fmu.md) as a native C master meets it (tests/fmi2_sequence_host.c).
+"""The FMUs' FMI 2.0 contract (docs/reference/fmi2.md) as a native C master meets it (tests/fmi2_sequence_host.c).
 
 A fast lane of random call sequences judged by the contract's state table and argument rules
 (tests/fmi2_sequences.py), and one plain regression test per defect class the contract fixes: each
@@ -88,7 +88,7 @@ SLOW_RUN = {"n": 1000, "seed": 1, "fem_share": 0.2, "two_share": 0.2, "pid_share
 
 @pytest.mark.slow
 def test_a_thousand_random_sequences_with_fem_and_two_instances_find_no_violation(lab):
-    """The slow run docs/fmu.md reports (also `python tests/fmi2_sequences.py --sequences 1000 --seed 1
+    """The slow run docs/reference/fmi2.md reports (also `python tests/fmi2_sequences.py --sequences 1000 --seed 1
     --fem-share 0.2 --two-instance-share 0.2`): every violation kind zero, fem and pairs well covered."""
     host, infos = lab
     c = SLOW_RUN

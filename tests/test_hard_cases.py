@@ -6,7 +6,7 @@ strain + contact energy plus the largest |torque work|); penetration (gap_min,
 the smallest gap at any internal step) below 2 mm; no step stall (internal
 steps per simulated millisecond below the case's bound, and solver.max_substeps
 set so that a stalling doStep would be discarded); two runs bit-identical.
-The bounds and why they are what they are: docs/robustness.md.
+The bounds and why they are what they are: docs/notes/robustness.md.
 
 Fidelities: those of physics/fidelity.py's AVAILABLE that model the wall of the case
 (the rigid fidelity has no deformable wall and no elements; "reduced" joins
@@ -27,11 +27,11 @@ from fem_pendulum_fmu.physics.fidelity import AVAILABLE, create
 from fem_pendulum_fmu.physics.scene import compliant, stiff
 
 RIGID_WALL = [f for f in ("rigid", "reduced", "fem") if f in AVAILABLE]
-COARSE = {"model.mesh_size": 0.06}  # robustness, not accuracy: the coarsest mesh (docs/fem.md mesh study)
+COARSE = {"model.mesh_size": 0.06}  # robustness, not accuracy: the coarsest mesh (docs/notes/fem.md mesh study)
 STALL_GUARD = {"solver.max_substeps": 5000}  # a doStep needing more is discarded, and the run fails
-PENETRATION = 2e-3  # m, the robustness bound (docs/robustness.md)
+PENETRATION = 2e-3  # m, the robustness bound (docs/notes/robustness.md)
 # energy error / energy moved, per fidelity: the rigid model's discrete gradient is exact to round-off;
-# the FE model's to its Newton tolerance and the discrete gradient's Gauss rule (docs/robustness.md)
+# the FE model's to its Newton tolerance and the discrete gradient's Gauss rule (docs/notes/robustness.md)
 ENERGY = {
     "high_speed": {"rigid": 1e-9, "reduced": 1e-6, "fem": 1e-7},
     "large_steps": {"rigid": 1e-9, "reduced": 1e-6, "fem": 1e-7},
@@ -44,7 +44,7 @@ ENERGY = {
 }
 # internal steps per simulated ms: free flight 0.5 (2 ms steps) plus 16 to 29 steps per contact duration;
 # a held contact takes free-flight steps after three contact durations (stepping.py): the resting case
-# measured 1.32 (rigid) to 1.52 (reduced) per ms over 0.3 s in 1 ms doSteps (docs/robustness.md)
+# measured 1.32 (rigid) to 1.52 (reduced) per ms over 0.3 s in 1 ms doSteps (docs/notes/robustness.md)
 STEPS_PER_MS = {
     "high_speed": 40,
     "large_steps": 2,
@@ -59,7 +59,7 @@ STEPS_PER_MS = {
 
 def record(**values) -> None:
     """Append measured worst values (before they are asserted) to $FEM_PENDULUM_ROBUSTNESS_LOG, if set:
-    benchmarks/robustness.py runs these tests that way to write the table of docs/robustness.md."""
+    benchmarks/robustness.py runs these tests that way to write the table of docs/notes/robustness.md."""
     path = os.environ.get("FEM_PENDULUM_ROBUSTNESS_LOG")
     if path:
         test = os.environ.get("PYTEST_CURRENT_TEST", "?").split(" ")[0].split("::")[-1]
@@ -192,7 +192,7 @@ def test_violent_square_wave_torque_over_the_top(fmus, fidelity):
     """+-50 N.m, 0.15 s each way, steel: over the top at ~100 rad/s, the head strikes the block's
     back face (x_min) at about 0.1 s and its front face after the reversal. (The head cannot reach
     the top face or its corners: they lie 0.129-0.143 m from the pivot, the head no closer than
-    0.18 m; docs/robustness.md.)"""
+    0.18 m; docs/notes/robustness.md.)"""
     params, schedule = violent(fidelity)
     runs = run_schedule(fmus[0], params, schedule, repeat=2)
     check_common("violent", fidelity, runs)

@@ -2,7 +2,7 @@
 an environment that lacks the FMU's packages, and a run that starts from a saved state.
 
 Every process here must exit normally with 0: pythonfmu's binary alone made
-hosts crash at exit and broke a second run in the same process (docs/fmu.md).
+hosts crash at exit and broke a second run in the same process (docs/notes/fmu_layer.md).
 """
 
 from __future__ import annotations

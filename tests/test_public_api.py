@@ -37,7 +37,7 @@ def modules_after_a_step(fidelity: str) -> list:
 
 def test_a_rigid_model_runs_without_importing_ngsolve_or_scipy():
     # only "auto" asks fidelity_rule.py, which computes the reduced model's modes; a rigid scene named as such
-    # needs neither (they were 0.1-0.15 s of the rigid FMU's start-up, docs/latency.md); auto still asks the rule
+    # needs neither (they were 0.1-0.15 s of the rigid FMU's start-up, docs/notes/latency.md); auto still asks the rule
     def in_a_child(fidelity: str) -> list:
         command = in_child.command("test_public_api", "modules_after_a_step", fidelity)
         return in_child.result(subprocess.run(command, capture_output=True, text=True, check=True).stdout)

@@ -1,10 +1,10 @@
 """The reduced fidelity (floating frame + modes) and the auto rule, against the FE model.
 
-Bounds come from runs of the same code (docs/reduced.md has the tables and commands):
+Bounds come from runs of the same code (docs/notes/reduced.md has the tables and commands):
 steel through the first impact and rebound agrees with fem to 0.004 degree and
 21 micrometres; rubber through its first impact to 0.24 degree and 1.4 mm (rigid: 3.9 degrees;
 0.56 degree and 3.7 mm with the previous Newton solver: after an impact rubber's angle depends on
-round-off, docs/reduced.md).
+round-off, docs/notes/reduced.md).
 """
 
 from __future__ import annotations

@@ -63,7 +63,7 @@ def scanned_files() -> list[Path]:
 
 def exists(cited: str, folder: Path) -> bool:
     """The cited path, relative to the citing file's folder or to the root, is in the repository (a * is a
-    glob; a trailing '.' or '_' ends the name in prose: 'fmi3_*.c', 'docs/speed_vs_error_*.png')."""
+    glob; a trailing '.' or '_' ends the name in prose: 'fmi3_*.c', 'docs/notes/speed_vs_error_*.png')."""
     cited = cited.rstrip(".,;:")
     if not cited or cited in (".", "./"):
         return True
@@ -209,10 +209,10 @@ def test_the_rules_find_what_they_target(relative, text, expected):
         ("docs/x.md", "A failed start prints:\n\n    [ERROR] this Python (/tmp/venv/bin/python) cannot run it\n"),
         ("docs/x.md", "Run `FEM_PENDULUM_CACHE=/tmp/cache fem-pendulum run`.\n"),
         # pages and files of the repository, relative to the page or the root; another project's file; a URL
-        ("docs/x.md", "[the FE model](fem.md#formulation), [home](../README.md), README.md, docs/fmu.md\n"),
+        ("docs/x.md", "[the model](guide/model.md), [home](../README.md), README.md, docs/reference/fmi2.md\n"),
         (
             "tests/test_x.py",
-            '"""As scikit-fem\'s tests/test_examples.py runs its examples; docs/speed_vs_error_*.png."""\n',
+            '"""As scikit-fem\'s tests/test_examples.py runs its examples; docs/notes/speed_vs_error_*.png."""\n',
         ),
         ("docs/x.md", "[FMI](https://fmi-standard.org/docs/3.0/#DESIGN.md) and <https://example.org/a/../b>\n"),
     ],

@@ -2,7 +2,7 @@
 against the stored references (benchmarks/references/), on the scenes it is meant for.
 
 It asserts accuracy only (the bounds are in benchmarks/speed_vs_error.py and
-docs/speed_vs_error.md), never time: wall times depend on the machine.
+docs/notes/speed_vs_error.md), never time: wall times depend on the machine.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
  * Build:  cc -I<fmpy>/c-code fmi2_host.c -ldl -o fmi2_host   (fmi2Functions.h from FMPy or the FMI standard)
  * Run:    ./fmi2_host <unzipped FMU folder> <guid> <steps> <fidelity> <vr model.fidelity> <vr theta>
  *
- * No environment is needed: the FMU starts the Python it was built with (docs/fmu.md). The host
+ * No environment is needed: the FMU starts the Python it was built with (docs/reference/fmi2.md). The host
  * runs <steps> steps of 1 ms with model.fidelity = <fidelity> (2 rigid, 4 fem), printing theta after
  * each; sends a NaN torque, which the FMU refuses with fmi2Error, state kept; saves the FMU state,
  * takes 5 steps, restores the state and takes the same 5 steps again (both printed); serialises the

@@ -3,7 +3,7 @@
  * Build:  cc -I<fmpy>/c-code fmi3_host.c -ldl -o fmi3_host   (fmi3Functions.h from FMPy or the FMI standard)
  * Run:    ./fmi3_host <unzipped FMU folder> <instantiation token> <steps> <fidelity> <vr model.fidelity> <vr theta>
  *
- * No environment is needed: the FMU starts the Python it was built with (docs/fmu.md). The host
+ * No environment is needed: the FMU starts the Python it was built with (docs/reference/fmi2.md). The host
  * instantiates with early return allowed, sets model.fidelity = <fidelity> (2 rigid, 4 fem; an
  * Enumeration, set as Int64), asks for one 0.5 s step from the release, which returns early at contact
  * onset ("early-return" and the time), runs <steps> steps of 1 ms printing theta; sends a NaN torque,

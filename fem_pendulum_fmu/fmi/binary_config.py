@@ -16,7 +16,7 @@ FMI3_KINDS = {"Float64": "REAL", "Int32": "INTEGER", "Boolean": "BOOLEAN", "Stri
 
 
 # the highest input derivative order an FMU that can interpolate its inputs takes (FMI 2.0 declares none;
-# both of this project's slaves take a polynomial of degree 2: docs/fmu.md)
+# both of this project's slaves take a polynomial of degree 2: docs/reference/fmi2.md)
 INPUT_DERIVATIVE_ORDER = 2
 
 

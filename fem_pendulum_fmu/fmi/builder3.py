@@ -7,7 +7,7 @@ modelDescription.xml is replaced by the one rendered from the template (model_de
 x86_64-linux binary by ours (shim/: fmi3_*.c and the code both binaries share, compiled with
 FMI3_BINARY and the instantiation token), its C++ sources are left out, and the resources get what the
 binary reads. terminalsAndIcons/terminalsAndIcons.xml declares the hinge's rotational flange. The FMU
-must pass fmpy's validation. docs/fmu3.md.
+must pass fmpy's validation. docs/notes/fmu_layer.md.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ variable names, value references, units, display units, descriptions, start valu
 FMI 3.0's types (Real -> Float64, Integer -> Int32, Enumeration -> Enumeration of an EnumerationType, Boolean,
 String), the instantiation token in place of the GUID, FMI 3.0's independent variable `time`, the array outputs
 of ARRAY_OUTPUTS and the co-simulation capabilities of the FMI 3.0 binary (shim/fmi3_*.c): event mode,
-intermediate update and early return, FMU states. docs/fmu3.md.
+intermediate update and early return, FMU states. docs/notes/fmu_layer.md.
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ complete (StepFailed) answers fmi2Discard. The FMU's entry script subclasses
 Input derivatives of the torque (fmi2SetRealInputDerivatives) make the next doStep's torque a
 polynomial (physics/torque.py) and are cleared by that doStep once it succeeds; output derivatives
 (fmi2GetRealOutputDerivatives) are the model's (PendulumModel.output_derivatives), asked for once per
-communication point and input. docs/fmu.md, "Input interpolation and output derivatives".
+communication point and input. docs/reference/fmi2.md, "Input interpolation and output derivatives".
 """
 
 from __future__ import annotations
@@ -139,7 +139,7 @@ class PendulumSlave(CheckedVariableAccess):
 
     def _set_torque(self, value: float) -> None:
         self.torque = float(value)  # the model checks it at doStep, which then answers fmi2Error
-        # its derivatives stay: a master may set them before or after the value (docs/fmu.md)
+        # its derivatives stay: a master may set them before or after the value (docs/reference/fmi2.md)
 
     # -------------------------------------------------------------- life cycle
     def enter_initialization_mode(self) -> None:

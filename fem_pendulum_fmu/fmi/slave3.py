@@ -7,7 +7,7 @@ Python and the same models and give the same results. What FMI 3.0 adds lives he
 variable `time`, the array output gap_profile (computed by physics/head_gaps.py), Enumerations read as
 Int64, early return at contact onset and the intermediate update (the host's callback, reached through
 the binary's fem_pendulum_intermediate_update), and the contact's onset and release reported as events.
-No physics: the model stops where the slave's `stop` says so (physics/stepping.py). docs/fmu3.md.
+No physics: the model stops where the slave's `stop` says so (physics/stepping.py). docs/reference/fmi3.md.
 """
 
 from __future__ import annotations
@@ -166,7 +166,7 @@ class PendulumSlave3(Fmi3Slave):
         self.inner.set_string(vrs, values)
 
     def get_output_derivatives(self, vrs: list[int], orders: list[int]) -> list[float]:
-        """fmi3GetOutputDerivatives: the FMI 2.0 slave's output derivatives (docs/fmu.md)."""
+        """fmi3GetOutputDerivatives: the FMI 2.0 slave's output derivatives (docs/reference/fmi2.md)."""
         return self.inner.get_real_output_derivatives(vrs, orders)
 
     # ---------------------------------------------------------------- FMU state

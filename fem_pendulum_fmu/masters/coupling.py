@@ -3,10 +3,10 @@
 Between communication points a co-simulation master holds each input constant (zero-order hold, the
 FMI default); FMUs that declare canInterpolateInputs and maxOutputDerivativeOrder let it pass the
 outputs' first (first-order hold) or first and second time derivatives (second-order hold) instead,
-so the receiving FMU follows a ramp or a parabola over its step (FMI 2.0, section 4.2.1; docs/fmu.md,
+so the receiving FMU follows a ramp or a parabola over its step (FMI 2.0, section 4.2.1; docs/reference/fmi2.md,
 "Input interpolation and output derivatives"). Plain functions on fmpy FMU2Slave instances and value
 references, so that any fmpy master can use them; benchmarks/coupling.py measures what they buy
-(docs/coupling.md).
+(docs/notes/coupling.md).
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ elastic frequency f1 of the hinged pendulum (reduced/modes.py):
 * otherwise (a soft body, whose rod a pivot torque bends far beyond a linear basis, or an
   impact too short for the basis): fem.
 
-docs/reduced.md gives the measurements behind the thresholds.
+docs/notes/reduced.md gives the measurements behind the thresholds.
 """
 
 from __future__ import annotations
@@ -79,7 +79,7 @@ def choose(scene: Scene) -> Choice:
 
 def soft_or_reduced(scene: Scene, why: str) -> Choice:
     """reduced, unless the body is soft: a soft rod bends far beyond what a linear basis carries
-    under a modest pivot torque (rubber: 2.4 rad of bending at 0.3 N.m, docs/reduced.md)."""
+    under a modest pivot torque (rubber: 2.4 rad of bending at 0.3 N.m, docs/notes/reduced.md)."""
     if uses_linear_strain(scene):
         return Choice("reduced", why)
     return Choice("fem", why + "; the body is soft (E / rho <= 1e5 m^2/s^2): large deflections need fem")

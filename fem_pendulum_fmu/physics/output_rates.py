@@ -1,7 +1,7 @@
 """Time derivatives of a model's continuous outputs at its current state (plain data, no FMI).
 
 A co-simulation master extrapolates an output over the next communication step from its first and
-second time derivatives (FMI 2.0 output derivatives, docs/fmu.md). Two ways to get them, both
+second time derivatives (FMI 2.0 output derivatives, docs/reference/fmi2.md). Two ways to get them, both
 from the state the model is in and the torque it will see:
 
 * `flow_derivatives`, for a model whose equations of motion are a vector field dx/dt = f(x, T)

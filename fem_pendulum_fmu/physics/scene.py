@@ -392,7 +392,7 @@ def refuse_deformable_wall(scene: Scene, fidelity: str) -> None:
         )
 
 
-# Memory of the FE model, measured (python benchmarks/robustness.py memory, docs/robustness.md): peak
+# Memory of the FE model, measured (python benchmarks/robustness.py memory, docs/notes/robustness.md): peak
 # resident size per unknown 5.4-8.3 kB for 5e3-1.2e5 unknowns at orders 2-5; the estimate takes
 # (3 + order) kB per unknown, twice over, plus a fixed 64 MB.
 _BYTES_PER_DOF_PER_ORDER = (3000.0, 1000.0)

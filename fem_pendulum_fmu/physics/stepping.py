@@ -45,7 +45,7 @@ The rule, in words (it is what `solver.max_step` and `solver.tolerance` mean):
   equals the load's (momentum balance), so the mean contact force, impulse
   over time, stays the load's reaction; what is given up is the phase of that
   vibration, so the sampled `contact_force` is a sample of an aliased
-  vibration (docs/robustness.md, case 4). The hold is the outputs'
+  vibration (docs/notes/robustness.md, case 4). The hold is the outputs'
   `contact_hold`, which every model's state carries, so a restored state
   steps as the original did;
 * a step whose nonlinear solve fails is rejected and halved; below

@@ -1,7 +1,7 @@
 """The drive torque over one advance: a constant, or a polynomial in time given at the advance's start.
 
 A co-simulation master that knows how the torque changes over a communication step can pass its
-value and first two time derivatives at the step's start (FMI 2.0 input interpolation, docs/fmu.md):
+value and first two time derivatives at the step's start (FMI 2.0 input interpolation, docs/reference/fmi2.md):
 
     T(s) = value + rate s + curvature s^2 / 2,   s = time since the advance's start.
 

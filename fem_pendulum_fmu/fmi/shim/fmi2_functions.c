@@ -5,7 +5,7 @@
  * message naming the call and the state, and changes nothing. The Python is made ready by
  * python_runtime.c; FMU states are handles of fmu_states.h and travel as bytes with a header of this
  * binary (format, version, the FMU's GUID, the time). Built by fem_pendulum_fmu/fmi/builder.py with
- * FMU_GUID and the modelDescription's capability flags defined; docs/fmu.md says what a host can
+ * FMU_GUID and the modelDescription's capability flags defined; docs/reference/fmi2.md says what a host can
  * rely on. */
 #include "python_api.h"
 
@@ -311,7 +311,7 @@ static PyObject *real_list(const fmi2Real value[], size_t n) {
 
 /* Input interpolation (FMI 2.0, section 4.2.1): derivatives of the inputs at the communication point, for the
  * next doStep. Each a continuous Real input, order 1 to FMU_INPUT_DERIVATIVE_ORDER, a finite value; anything
- * else is fmi2Error with nothing changed. docs/fmu.md says what the slave does with them after the step. */
+ * else is fmi2Error with nothing changed. docs/reference/fmi2.md says what the slave does with them after the step. */
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
                                        const fmi2Integer order[], const fmi2Real value[]) {
     Frame f;

@@ -7,7 +7,7 @@
  * (state_machine.h): configurationMode (no structural parameters), intermediateUpdateMode as a state
  * of its own (the host's callback runs inside fmi3DoStep, where only the calls the callback may make
  * are answered: fmi3_step.c), reconfigurationMode, error (a refused call changes nothing) and fatal.
- * docs/fmu3.md has the table in words. */
+ * docs/reference/fmi3.md has the table in words. */
 #ifndef FEM_PENDULUM_FMI3_CALLS_H
 #define FEM_PENDULUM_FMI3_CALLS_H
 

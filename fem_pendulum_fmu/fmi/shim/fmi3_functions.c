@@ -6,7 +6,7 @@
  * reached through an FMI 2.0-shaped logger (`to_fmi3_logger`), so that every message of the shared code
  * reaches it. The Python slave is fmi/slave3.py's (pythonfmu3's Fmi3Slave, in front of the FMI 2.0
  * slave's logic). doStep and event mode: fmi3_step.c; FMU states: fmi3_states.c; what this FMU does
- * not provide: fmi3_unsupported.c. docs/fmu3.md says what a host can rely on. */
+ * not provide: fmi3_unsupported.c. docs/reference/fmi3.md says what a host can rely on. */
 #include "python_api.h"
 
 #include <stdarg.h>

@@ -6,7 +6,7 @@
  * return early there. While the callback runs, the instance answers no other call (fmi3IntermediateUpdate
  * passes intermediateVariableGetAllowed and SetRequested false). With eventModeUsed, a step during which
  * the contact began or ended answers eventHandlingNeeded; the host then calls fmi3EnterEventMode,
- * fmi3UpdateDiscreteStates and fmi3EnterStepMode. docs/fmu3.md. */
+ * fmi3UpdateDiscreteStates and fmi3EnterStepMode. docs/reference/fmi3.md. */
 #include "python_api.h"
 
 #include <math.h>

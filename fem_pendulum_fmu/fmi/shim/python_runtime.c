@@ -2,7 +2,7 @@
  *
  The FMU's binary does not link libpython. Finalising a Python from an exit
  * handler runs the extension modules' cleanup after their C++ statics are gone
- * (NGSolve's segfaults, docs/fmu.md), so this file makes sure a Python is
+ * (NGSolve's segfaults, docs/notes/fmu_layer.md), so this file makes sure a Python is
  * running before the slave is ever called, and never finalises the one it
  * starts:
  *

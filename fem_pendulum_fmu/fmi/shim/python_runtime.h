@@ -15,7 +15,7 @@ int python_alive(void);
 
 /* 1 once a Python that ran in this process while this binary was loaded has been finalised or is being
  * finalised. The host's callbacks are then never called: in a Python host (fmpy, PyFMI) they are ctypes
- * callbacks into that Python, and calling one then dies in PyGILState_Ensure (docs/fmu.md, "Exit"). */
+ * callbacks into that Python, and calling one then dies in PyGILState_Ensure (docs/reference/fmi2.md, "Exit"). */
 int python_ended(void);
 
 #endif

@@ -4,7 +4,7 @@
  * Not entered: stepFailed (a doStep that answers fmi2Discard leaves the model as at the start of the
  * step, so the instance stays in stepComplete and may retry), stepInProgress and stepCanceled (doStep
  * is synchronous and never answers fmi2Pending), error (a call answered fmi2Error changes nothing) and
- * fatal (never answered). docs/fmu.md has the table in words. */
+ * fatal (never answered). docs/reference/fmi2.md has the table in words. */
 #ifndef FEM_PENDULUM_STATE_MACHINE_H
 #define FEM_PENDULUM_STATE_MACHINE_H
 
@@ -78,7 +78,7 @@ typedef enum {
  * terminated may only be read in a terminated instance.
  * X(the instance's state, after an FMU state taken before initialisation [instantiated, initializationMode],
  * after one taken stepping [stepComplete, eventMode], after one taken in terminated); RESTORE_REFUSED: fmi2Error,
- * nothing changed. docs/fmu.md, "Setting an FMU state". */
+ * nothing changed. docs/reference/fmi2.md, "Setting an FMU state". */
 #define RESTORE_REFUSED NO_STATE
 #define FMU_STATE_RESTORES(X)                                                                          \
     X(STATE_INSTANTIATED, STATE_INSTANTIATED, STATE_STEP_COMPLETE, RESTORE_REFUSED)                   \

@@ -76,7 +76,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="auto",
         metavar="{auto,0,1,2}",
         help="how values vary over a step: 0 held, 1 ramps, 2 parabolas from the FMUs' output derivatives "
-        "(docs/coupling.md); auto (default): the highest order both FMUs declare",
+        "(docs/notes/coupling.md); auto (default): the highest order both FMUs declare",
     )
     add("--out", type=Path, default=Path("out") / "control", help="prefix of the CSV, PNG and JSON written")
 

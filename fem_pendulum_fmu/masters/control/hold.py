@@ -2,7 +2,7 @@
 
 With order 0 the loop holds every value over a communication step (sample and hold). With order 1 or
 2 it also passes time derivatives across the connection (masters/coupling.py), so the controller's
-inputs and the pendulum's torque follow a ramp or a parabola over the step; docs/coupling.md measures
+inputs and the pendulum's torque follow a ramp or a parabola over the step; docs/notes/coupling.md measures
 what that buys. An FMU takes part only as far as it declares: canInterpolateInputs and
 maxOutputDerivativeOrder in its modelDescription; a Python function controller gives no derivatives
 (order 0). "auto" is the highest order both sides declare, at most 2.

@@ -5,7 +5,7 @@
  * WallContact.evaluate (reduced/contact.py): the linearised midpoint predictor, Newton on
  * the discrete-gradient equations with the Jacobian of first order in the step,
  * and the energy-balance test. A step is 13 unknowns by default, so numpy's
- * per-call overhead was most of its cost (docs/reduced.md). Plain C, no
+ * per-call overhead was most of its cost (docs/notes/reduced.md). Plain C, no
  * Python API.
  */
 #include <math.h>

@@ -62,7 +62,7 @@ from .step_loader import StepLoader
 
 # Compliant bodies: a step whose energy balance misses by more than this share of the energy in
 # motion is rejected and halved. The discrete gradient's Gauss rule is exact only to the strain
-# increment's 6th power; a crushing rubber hinge otherwise gained 15 % in 0.3 ms (docs/robustness.md).
+# increment's 6th power; a crushing rubber hinge otherwise gained 15 % in 0.3 ms (docs/notes/robustness.md).
 STEP_ENERGY_TOLERANCE = 1e-3
 # The probe steps of output_derivatives (s): Newton's tolerance (NEWTON_RTOL of a step's displacement) leaves
 # ~1e-9 |omega| / PROBE_STEP in theta'', 1e-5 of it at 20 degrees; the one-sided differences' truncation,

@@ -110,7 +110,7 @@ class FemOutputs:
         space.gf_u.vec.FV().NumPy()[:] = 0.5 * (u0 + u1)
         space.gf_v.vec.FV().NumPy()[:] = u1 - u0
         # exact for the integrand's degree 2 order (Cof F, x and u); the default rule (order 5) lost
-        # up to 15 % of the work when the rubber hinge edge deformed strongly (docs/robustness.md)
+        # up to 15 % of the work when the rubber hinge edge deformed strongly (docs/notes/robustness.md)
         order = 2 * space.scene.model.order + 2
         return torque * float(
             Integrate(self._unit_torque_work_cf, space.mesh, BND, order=order, definedon=space.mesh.Boundaries("hinge"))
@@ -220,7 +220,7 @@ class FemOutputs:
 
     def _strain(self, u: np.ndarray) -> float:
         """The forms' own rule (2 order): the scheme conserves the strain energy integrated so; a finer
-        rule differed by up to 3 % of the work in the crushed rubber hinge (docs/robustness.md)."""
+        rule differed by up to 3 % of the work in the crushed rubber hinge (docs/notes/robustness.md)."""
         if self._strain_energy is not None:
             return self._strain_energy(u)
         space, mesh = self._space, self._space.mesh

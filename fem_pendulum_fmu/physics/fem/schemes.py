@@ -187,7 +187,7 @@ def _differentiated(builder: Builder) -> Builder:
 
 
 def discrete_gradient_points(mat: Material) -> int:
-    """Gauss points of the discrete gradient's averaged stress (docs/robustness.md): for steel one point
+    """Gauss points of the discrete gradient's averaged stress (docs/notes/robustness.md): for steel one point
     lost up to 0.5 % of the energy after violent impacts (strains ~3e-3), two: 4e-4 J of 280 J; rubber
     at 50 % strain drifted 9 % of a pulse's work in 40 ms with two points, 0.8 % with three."""
     return 3 if mat.soft else 2

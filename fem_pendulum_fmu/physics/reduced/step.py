@@ -7,7 +7,7 @@ step's largest change. The imbalance alone checks the residual along dz only: st
 left rubber's angle about 0.7 degree off the converged solution by 0.5 s. From the linearised
 predictor Newton contracts by ~3e-4 per iteration, so an update of 1e-3 leaves an error ~1e-6 of
 the step: over 0.6 s of rubber impacts the angle stays within 3e-4 degree and the gap within 1
-micrometre of steps converged to updates of 1e-8 (docs/reduced.md).
+micrometre of steps converged to updates of 1e-8 (docs/notes/reduced.md).
 """
 
 from __future__ import annotations
