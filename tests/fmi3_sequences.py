@@ -221,8 +221,8 @@ class Sequence:
 
     def set_state(self, entry: tuple, live: bool) -> None:
         """fmi3SetFMUState of a state handed out (freed unless `live`). Every state of this FMU fits: the
-        parameters are the same in every sequence (docs/reference/fmi2.md, FMU states); where it may be set and the state
-        after are the table's (Oracle.restored)."""
+        parameters are the same in every sequence (docs/reference/fmi2.md, FMU states); where it may be set and
+        the state after are the table's (Oracle.restored)."""
         o = self.oracle
         handle, t, torque, taken = entry
         after = o.restored(taken) if live else None

@@ -120,8 +120,8 @@ def finish_fmu(
         has_shim = compile_shim(shim, model_description, names)
         if not has_shim:
             print(
-                f"{fmu.name}: no C compiler or Python headers; the FMU has pythonfmu's binary alone "
-                "(no fmi2Error, no state machine, no Python for native hosts, pythonfmu's crash at exit; docs/guide/hosts.md)"
+                f"{fmu.name}: no C compiler or Python headers; the FMU has pythonfmu's binary alone (no fmi2Error, "
+                "no state machine, no Python for native hosts, pythonfmu's crash at exit; docs/guide/hosts.md)"
             )
         staged = fmu.with_suffix(".tmp")
         with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(staged, "w", zipfile.ZIP_DEFLATED) as dst:

@@ -18,7 +18,8 @@ MODEL_CLASSES = {"rigid": "RigidModel", "reduced": "ReducedModel", "fem": "FemMo
 def resolve_fidelity(scene: Scene) -> str:
     """The fidelity that runs for a scene: the parameter, or for "auto" the rule of fidelity_rule.py (logged).
     The rule is imported only for "auto": its module imports SciPy for the reduced model's modes (and runs
-    NGSolve), which a rigid scene would otherwise load for nothing (0.1-0.15 s of its start-up, docs/notes/latency.md)."""
+    NGSolve), which a rigid scene would otherwise load for nothing (0.1-0.15 s of its start-up,
+    docs/notes/latency.md)."""
     if scene.model.fidelity != "auto":
         return scene.model.fidelity
     from .fidelity_rule import choose
