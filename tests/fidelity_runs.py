@@ -15,9 +15,8 @@ from fem_pendulum_fmu.physics.protocol import ModelState, Outputs
 
 DT = 1e-3  # the masters' communication step (s)
 
-# every field of Outputs (protocol.py), then gap_min: model.last_min_gap, the smallest gap at any internal step of
-# the communication step
-COLUMNS = (*(f.name for f in dataclasses.fields(Outputs)), "gap_min")
+# every field of Outputs (protocol.py); gap_min is the smallest gap at any internal step of the communication step
+COLUMNS = tuple(f.name for f in dataclasses.fields(Outputs))
 
 
 def run(
@@ -39,7 +38,7 @@ def run(
             states[k] = model.get_state()
         start = t0 + k * dt
         o = model.advance(t0 + (k + 1) * dt, torque(start) if callable(torque) else torque)
-        rows.append((*dataclasses.astuple(o), model.last_min_gap))
+        rows.append(dataclasses.astuple(o))
     return np.rec.fromrecords(rows, names=COLUMNS)
 
 

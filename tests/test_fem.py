@@ -27,7 +27,7 @@ from fidelity_runs import finite, run
 
 from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
-from fem_pendulum_fmu.physics.scene import compliant, stiff, validate
+from fem_pendulum_fmu.physics.scene import rubber, steel, validate
 from fem_pendulum_fmu.physics.swing import peaks_after_first_contact
 
 G = 9.81
@@ -35,7 +35,7 @@ G = 9.81
 
 def balance(out):
     """E_total - W_torque at each communication point."""
-    return out.total - out.torque_work
+    return out.energy_total - out.energy_torque_work
 
 
 def rebound_peaks(out):
@@ -45,8 +45,8 @@ def rebound_peaks(out):
 
 @pytest.fixture(scope="module")
 def stiff_run():
-    model = create(stiff())
-    e0 = model.outputs().total
+    model = create(steel())
+    e0 = model.outputs().energy_total
     states = dict.fromkeys(range(229, 250))
     return model, e0, run(model, 1.0, states=states), states
 
@@ -94,12 +94,14 @@ def test_stiff_rebounds_lose_energy_to_vibration_only(stiff_run):
     # the second impact meets a vibrating pendulum and depends on the vibration's phase
     # (18.3-19.45 degrees across meshes), but no impact may gain energy
     assert np.all(peaks[:2] <= 20.0 + 0.01), peaks
-    assert out.strain[-1] > 1e-3 * swing_energy(model.scene)  # the vibration is there, in strain and kinetic energy
+    assert out.energy_strain[-1] > 1e-3 * swing_energy(
+        model.scene
+    )  # the vibration is there, in strain and kinetic energy
 
 
 @pytest.mark.slow
 def test_seed_equivalent_stiffness_rebounds_to_20_degrees():
-    model = create(stiff(**{"pendulum.E": 2.1e11 / 0.01}))
+    model = create(steel(**{"pendulum.E": 2.1e11 / 0.01}))
     out = run(model, 1.0)
     peaks = rebound_peaks(out)
     assert len(peaks) >= 2
@@ -109,8 +111,8 @@ def test_seed_equivalent_stiffness_rebounds_to_20_degrees():
 @pytest.mark.slow
 def test_free_swing_energy_and_small_amplitude_period():
     theta0 = math.radians(2.0)
-    model = create(stiff(theta0=theta0, **{"wall.kind": "none"}))
-    e0 = model.outputs().total
+    model = create(steel(theta0=theta0, **{"wall.kind": "none"}))
+    e0 = model.outputs().energy_total
     out = run(model, 2.0)
     err = np.max(np.abs(balance(out) - e0))
     assert err <= 1e-4 * swing_energy(model.scene), err
@@ -124,9 +126,9 @@ def test_free_swing_energy_and_small_amplitude_period():
 
 def test_constant_torque_holds_the_pendulum_where_gravity_balances_it():
     torque = 0.5
-    model = create(stiff(**{"wall.kind": "none"}))
+    model = create(steel(**{"wall.kind": "none"}))
     theta_eq = math.asin(torque / (model.total_mass * G * model.com_depth))
-    model = create(stiff(theta0=theta_eq, **{"wall.kind": "none"}))
+    model = create(steel(theta0=theta_eq, **{"wall.kind": "none"}))
     out = run(model, 0.3, torque)
     assert abs(np.mean(out.theta) / theta_eq - 1) <= 1e-3, (np.mean(out.theta), theta_eq)
     assert np.max(np.abs(out.theta - theta_eq)) <= 1e-3 * theta_eq
@@ -134,8 +136,8 @@ def test_constant_torque_holds_the_pendulum_where_gravity_balances_it():
 
 @pytest.mark.slow
 def test_compliant_impact_feeds_vibration_and_keeps_energy():
-    model = create(compliant())
-    e0 = model.outputs().total
+    model = create(rubber())
+    e0 = model.outputs().energy_total
     out = run(model, 0.6)
     swing = swing_energy(model.scene)
     assert np.max(np.abs(balance(out) - e0)) <= 1e-3 * swing
@@ -148,7 +150,7 @@ def test_compliant_impact_feeds_vibration_and_keeps_energy():
 def test_compliant_angle_and_gap_converge_under_mesh_refinement():
     results = {}
     for size in (0.06, 0.03, 0.015):
-        model = create(compliant(**{"model.mesh_size": size, "model.order": 2}))
+        model = create(rubber(**{"model.mesh_size": size, "model.order": 2}))
         results[size] = run(model, 0.3)
     ref = results[0.015]
     err = {
@@ -177,15 +179,15 @@ def test_compliant_angle_and_gap_converge_under_mesh_refinement():
 )
 def test_bad_parameters_are_named_with_value_and_range(name, value, allowed):
     with pytest.raises(ValueError, match=allowed) as info:
-        create(stiff(**{name: value}))
+        create(steel(**{name: value}))
     assert name in str(info.value) and repr(value) in str(info.value)
 
 
 @pytest.mark.slow
 def test_deformable_wall_impact_is_finite_and_keeps_energy():
     """The seed's set-up: the meshed steel block, through ContactBoundary."""
-    model = create(stiff(**{"wall.kind": "deformable"}))
-    e0 = model.outputs().total
+    model = create(steel(**{"wall.kind": "deformable"}))
+    e0 = model.outputs().energy_total
     model.advance(0.235, 0.0)
     out = run(model, 0.25)
     assert finite(out)
@@ -195,22 +197,22 @@ def test_deformable_wall_impact_is_finite_and_keeps_energy():
 
 
 def test_von_mises_only_when_asked_and_plausible():
-    quiet = create(compliant())
-    asked = create(compliant(**{"model.compute_stress": True}))
+    quiet = create(rubber())
+    asked = create(rubber(**{"model.compute_stress": True}))
     a, b = quiet.advance(0.01, 0.0), asked.advance(0.01, 0.0)
-    assert a.von_mises_max == 0.0
+    assert a.stress_von_mises_max == 0.0
     # rubber hanging under its own weight: stress of the order rho g L (a few kPa), far below E
     # (rho g L = 2.9 kPa with L = 0.3 m, pivot to the bottom of the head); measured 3143 Pa at 0.01 s:
-    # create(compliant(**{"model.compute_stress": True})).advance(0.01, 0.0).von_mises_max
-    assert b.von_mises_max == pytest.approx(3143.0, rel=0.05), b.von_mises_max
+    # create(rubber(**{"model.compute_stress": True})).advance(0.01, 0.0).stress_von_mises_max
+    assert b.stress_von_mises_max == pytest.approx(3143.0, rel=0.05), b.stress_von_mises_max
     assert b.theta == a.theta  # asking for stress does not change the dynamics
 
 
 def test_element_order_follows_the_material_unless_set():
     """model.order 0 (auto, the default): order 3 for a soft pendulum, 2 for a stiff one; set, it stays."""
-    rubber = {"pendulum.E": 1e6, "pendulum.nu": 0.45, "pendulum.rho": 1000.0}
-    assert validate(stiff()).model.order == 2
-    assert validate(stiff(**rubber)).model.order == 3
-    assert validate(compliant()).model.order == 3
-    assert validate(stiff(**rubber, **{"model.order": 2})).model.order == 2
-    assert validate(stiff(**{"model.order": 4})).model.order == 4
+    soft = {"pendulum.E": 1e6, "pendulum.nu": 0.45, "pendulum.rho": 1000.0}
+    assert validate(steel()).model.order == 2
+    assert validate(steel(**soft)).model.order == 3
+    assert validate(rubber()).model.order == 3
+    assert validate(steel(**soft, **{"model.order": 2})).model.order == 2
+    assert validate(steel(**{"model.order": 4})).model.order == 4

@@ -33,7 +33,7 @@ from fidelity_runs import DT, finite, run
 from fem_pendulum_fmu.physics.fidelity import create
 from fem_pendulum_fmu.physics.mass_properties import swing_energy
 from fem_pendulum_fmu.physics.rigid import arc_contact as rc
-from fem_pendulum_fmu.physics.scene import WallBlock, stiff
+from fem_pendulum_fmu.physics.scene import WallBlock, steel
 from fem_pendulum_fmu.physics.stepping import MIN_STEPS_PER_CONTACT
 from fem_pendulum_fmu.physics.swing import peaks_after_first_contact
 
@@ -41,17 +41,17 @@ G = 9.81
 
 
 def rigid(**values):
-    return create(stiff(model__fidelity="rigid", **values))
+    return create(steel(model__fidelity="rigid", **values))
 
 
 def balance(out, e0):
     """E_total - E_0 - W_torque at each communication point."""
-    return out.total - out.torque_work - e0
+    return out.energy_total - out.energy_torque_work - e0
 
 
 def energy_bound(model, out, kinetic_max):
     mgd = model.total_mass * G * model.com_depth
-    return out.substeps.sum() * 4e-15 * (mgd + kinetic_max)
+    return out.solver_substeps.sum() * 4e-15 * (mgd + kinetic_max)
 
 
 # ------------------------------------------------------------------ mass properties
@@ -76,7 +76,7 @@ def test_mass_properties_match_the_closed_form():
 @pytest.fixture(scope="module")
 def stiff_run():
     model = rigid()
-    e0 = model.outputs().total
+    e0 = model.outputs().energy_total
     states = dict.fromkeys(range(199, 261))
     out = run(model, 2.0, states=states)
     return model, out, e0, states
@@ -118,7 +118,7 @@ def test_first_contact_time_and_penetration(stiff_run):
     assert -gap.min() == pytest.approx(impact.penetration, rel=0.05)
     # the internal steps of the 1 ms run see the same depth (16 steps per contact and the onset's)
     assert -out.gap_min.min() == pytest.approx(-gap.min(), rel=5e-3)
-    assert MIN_STEPS_PER_CONTACT <= out.substeps[first] <= 60
+    assert MIN_STEPS_PER_CONTACT <= out.solver_substeps[first] <= 60
 
 
 def test_energy_conserved_through_impacts(stiff_run):
@@ -134,7 +134,7 @@ def test_energy_conserved_through_impacts(stiff_run):
 def test_small_amplitude_period_without_wall():
     theta0 = math.radians(2.0)
     model = rigid(wall__kind="none", theta0=theta0)
-    e0 = model.outputs().total
+    e0 = model.outputs().energy_total
     out = run(model, 3.0)
     th, t = out.theta, out.time
     up = [t[i] - th[i] * (t[i + 1] - t[i]) / (th[i + 1] - th[i]) for i in range(len(th) - 1) if th[i] < 0 <= th[i + 1]]
@@ -165,10 +165,10 @@ def test_a_held_contact_is_resolved_first_then_takes_free_flight_steps():
     1 ms doStep is one step (measured: 23, 22, 21 steps, then 1), the energy balance still exact."""
     torque = -5.0  # presses the head against the right face
     model = rigid(theta0=0.0)  # touching, at rest: it rocks on the penalty spring
-    e0 = model.outputs().total
+    e0 = model.outputs().energy_total
     out = run(model, 0.05, torque)
     assert np.all(out.gap_min < 0) and finite(out)
-    assert out.substeps[0] >= MIN_STEPS_PER_CONTACT and np.all(out.substeps[3:] == 1)
+    assert out.solver_substeps[0] >= MIN_STEPS_PER_CONTACT and np.all(out.solver_substeps[3:] == 1)
     assert model.outputs().contact_hold == pytest.approx(0.05)  # in contact at every step's end
     assert np.max(np.abs(balance(out, e0))) <= energy_bound(model, out, 0.0)
 
@@ -193,7 +193,7 @@ def test_resting_contact_equilibrium_is_kept():
     assert out.contact_force[-1] == pytest.approx(expected, rel=1e-3)
     # resolved for three contact durations, then held: one step per doStep (measured 23, 23, 16, 1, ...),
     # and the equilibrium is a fixed point of the discrete gradient at any step
-    assert out.substeps[0] >= MIN_STEPS_PER_CONTACT and np.all(out.substeps[3:] == 1)
+    assert out.solver_substeps[0] >= MIN_STEPS_PER_CONTACT and np.all(out.solver_substeps[3:] == 1)
 
 
 # ------------------------------------------------------------------ driven over the top
@@ -203,11 +203,11 @@ def square_wave(t):
 
 @pytest.mark.parametrize("block, face", [(None, "left"), ({"block.y_max": -0.2}, "top")])
 def test_driven_over_the_top(block, face):
-    scene = stiff(model__fidelity="rigid")
+    scene = steel(model__fidelity="rigid")
     if block:
         scene = scene.with_values(block)
     model = create(scene)
-    e0 = model.outputs().total
+    e0 = model.outputs().energy_total
     states = dict.fromkeys(range(1, 3000))  # states[k + 1]: the state at row k's end
     out = run(model, 3.0, square_wave, states=states)
     assert finite(out)
@@ -216,7 +216,7 @@ def test_driven_over_the_top(block, face):
     for k in np.flatnonzero(out.gap < 0):
         q = states[k + 1].scalars["theta"]
         faces.update(rc.FACES[p.face] for p in rc.inside_pieces(model.arc(q), model.block))
-    kinetic_max = float(out.kinetic.max())
+    kinetic_max = float(out.energy_kinetic.max())
     assert np.max(np.unwrap(out.theta)) > math.pi + 1.0  # over the top and down the other side
     assert face in faces
     assert np.max(np.abs(balance(out, e0))) <= energy_bound(model, out, kinetic_max)
