@@ -26,9 +26,13 @@ typedef struct {
     int *points;                /* the candidate head points (P) */
     double *dist, *behind, *w;  /* their distances, and the scales' scratch (P each) */
     double *grad, *hess, *row;  /* contact terms with derivatives (n, n n, n) */
+    double *group_gap, *reach;  /* each run's centre gap and reach at the last state closest() saw (groups) */
     double *V_z;                /* the z whose potential V holds (n) */
     double V;
     int has_V;
+    double *near_x;             /* the state (z, p) closest() last saw (2 n), whose result `near` holds */
+    int has_near;
+    struct closest_point { int count, index; double gap, rate, arm; } near;
 } Model;
 
 /* M(q)^-1 p into m->v (reduced/dynamics.py, ModalMass.velocity) */
@@ -75,26 +79,25 @@ static void box_normal(const Reduced *R, double px, double py, double *nx, doubl
     *ny *= (py > by) - (py < by);
 }
 
-typedef struct {
-    int count, index;      /* candidate points, the closest among them */
-    double gap, rate, arm; /* the closest point's gap, its rate, the normal's moment arm about the pivot */
-} Closest;
+/* candidate points (m->points, m->dist), the closest among them; its gap, its rate, the normal's moment arm */
+typedef struct closest_point Closest;
 
 /* the head point closest to the block among the runs within SCALE_BAND of it (approach.py, closest) */
 static Closest closest(Model *m, const double *x) {
+    int n = m->n;
+    if (m->has_near && memcmp(m->near_x, x, sizeof(double) * 2 * n) == 0) return m->near; /* step control asks again */
     const Reduced *R = m->R;
     const double *z = x, *q = z + 1;
     double c = cos(z[0]), s = sin(z[0]), cutoff = INFINITY;
     for (int k = 0; k < R->groups; ++k) {
-        double reach, gap = femp_r_group_gap(R, k, c, s, q, &reach);
-        cutoff = fmin(cutoff, gap + reach);
+        m->group_gap[k] = femp_r_group_gap(R, k, c, s, q, &m->reach[k]);
+        cutoff = fmin(cutoff, m->group_gap[k] + m->reach[k]);
     }
     cutoff += SCALE_BAND;
     Closest out = {0, 0, INFINITY, 0.0, 0.0};
     double best_x = 0.0, best_y = 0.0;
     for (int k = 0; k < R->groups; ++k) {
-        double reach, gap = femp_r_group_gap(R, k, c, s, q, &reach);
-        if (!(gap - reach <= cutoff)) continue;
+        if (!(m->group_gap[k] - m->reach[k] <= cutoff)) continue;
         for (int i = R->group_start[k]; i < R->group_start[k + 1]; ++i) {
             double px, py;
             femp_r_head_point(R, i, c, s, q, &px, &py);
@@ -110,6 +113,8 @@ static Closest closest(Model *m, const double *x) {
     double ex = femp_r_dot(R->m, phi, m->v + 1), ey = femp_r_dot(R->m, phi + R->m, m->v + 1), w = m->v[0];
     out.rate = nx * (-w * best_y + c * ex - s * ey) + ny * (w * best_x + s * ex + c * ey);
     out.arm = best_x * ny - best_y * nx;
+    memcpy(m->near_x, x, sizeof(double) * 2 * n);
+    m->near = out, m->has_near = 1;
     return out;
 }
 
@@ -191,10 +196,10 @@ static void contact_scales(void *self, const double *x, double *t_contact, doubl
     free(gaps);
 }
 
-/* the contact terms at z (with derivatives into m->grad) */
-static Contact terms(Model *m, const double *z) {
+/* the contact terms at z: `what` of reduced_internal.h (the gradient into m->grad) */
+static Contact terms(Model *m, const double *z, int what) {
     Contact C = {0, 0.0, 0.0, 0.0, m->grad, m->hess};
-    femp_r_contact_at(m->R, z, 1, &C, m->row);
+    femp_r_contact_at(m->R, z, what, &C, m->row);
     return C;
 }
 
@@ -219,13 +224,14 @@ static void contact_impulse(void *self, const double *x0, const double *x1, doub
     double m00 = m->R->inertia0 + two_aq + femp_r_dot(k, zm + 1, zm + 1);
     Wdz[0] = m00 * dz[0] + femp_r_dot(k, m->c, dz + 1);
     for (int i = 0; i < k; ++i) Wdz[1 + i] = m->c[i] * dz[0] + dz[1 + i];
-    double denom = femp_r_dot(n, dz, Wdz), e1 = terms(m, x1).energy, e0 = terms(m, x0).energy;
-    Contact cm = terms(m, zm);
+    double denom = femp_r_dot(n, dz, Wdz);
+    double e1 = terms(m, x1, CONTACT_ENERGY).energy, e0 = terms(m, x0, CONTACT_ENERGY).energy;
+    Contact cm = terms(m, zm, CONTACT_GRADIENT);
     double gc0 = cm.grad[0];
     if (denom > 0.0) gc0 = cm.grad[0] + ((e1 - e0 - femp_r_dot(n, cm.grad, dz)) / denom) * Wdz[0];
     const double *at[3] = {zm, x1, x0};
     for (int i = 0; i < 3; ++i) {
-        Contact C = terms(m, at[i]);
+        Contact C = i == 0 ? cm : terms(m, at[i], CONTACT_GRADIENT);
         if (C.grad[0] != 0.0) {
             double scale = dt * (gc0 / C.grad[0]);
             j[0] = scale * C.fx, j[1] = scale * C.fy;
@@ -258,11 +264,12 @@ int femp_reduced_advance(const struct femp_reduced *R, const struct femp_step_co
                          const struct femp_torque *torque, double *x, struct femp_advance *a, femp_stop_fn stop,
                          void *context) {
     int n = R->m + 1, P = R->P;
-    double *work = malloc(sizeof(double) * (2 * n + 3 * P + 2 * n + n * n + n));
+    double *work = malloc(sizeof(double) * (2 * n + 3 * P + 2 * n + n * n + n + 2 * R->groups + 2 * n));
     int *points = malloc(sizeof(int) * P);
     Model m = {.R = R, .n = n, .max_step = control->max_step};
     m.v = work, m.c = work + n, m.dist = work + 2 * n, m.behind = m.dist + P, m.w = m.behind + P;
     m.grad = m.w + P, m.hess = m.grad + n, m.row = m.hess + n * n, m.V_z = m.row + n, m.points = points;
+    m.group_gap = m.V_z + n, m.reach = m.group_gap + R->groups, m.near_x = m.reach + R->groups;
     struct femp_steppable model = {&m, 2 * n + 1, step, gap_and_rate, contact_scales, contact_force, contact_impulse};
     int status = femp_advance(&model, control, torque, x, a, stop, context);
     free(points);

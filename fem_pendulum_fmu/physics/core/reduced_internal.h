@@ -22,6 +22,7 @@ int femp_r_circle_may_touch(const Reduced *R, double cx, double cy, double radiu
 double femp_r_abs_dot(int k, const double *x, const double *q);              /* x . |q| */
 void femp_r_head_point(const Reduced *R, int i, double c, double s, const double *q, double *px, double *py);
 double femp_r_group_gap(const Reduced *R, int k, double c, double s, const double *q, double *reach);
-void femp_r_contact_at(const Reduced *R, const double *z, int with_derivatives, Contact *C, double *row);
+enum { CONTACT_ENERGY = 0, CONTACT_GRADIENT = 1, CONTACT_HESSIAN = 2 }; /* what femp_r_contact_at makes */
+void femp_r_contact_at(const Reduced *R, const double *z, int terms, Contact *C, double *row);
 
 #endif

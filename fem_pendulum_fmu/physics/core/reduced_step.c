@@ -215,10 +215,10 @@ double femp_reduced_gap(const Reduced *R, const double *z) {
     return best;
 }
 
-/* One head point inside the block: its penalty terms added to C (with_derivatives: gradient and
- * Gauss-Newton Hessian in z too). */
-static void add_point(const Reduced *R, int i, double px, double py, double c, double s, int with_derivatives,
-                      Contact *C, double *row) {
+/* One head point inside the block: its penalty terms added to C (with `terms` CONTACT_GRADIENT the gradient
+ * in z too, CONTACT_HESSIAN also the Gauss-Newton Hessian). */
+static void add_point(const Reduced *R, int i, double px, double py, double c, double s, int terms, Contact *C,
+                      double *row) {
     int n = R->m + 1;
     double ex = px - 0.5 * (R->x_min + R->x_max), ey = py - 0.5 * (R->y_min + R->y_max);
     double qx = fabs(ex) - 0.5 * (R->x_max - R->x_min), qy = fabs(ey) - 0.5 * (R->y_max - R->y_min);
@@ -230,27 +230,26 @@ static void add_point(const Reduced *R, int i, double px, double py, double c, d
     C->energy += 0.5 * w * depth * depth;
     C->fx += wd * nx;
     C->fy += wd * ny;
-    if (!with_derivatives) return;
+    if (terms == CONTACT_ENERGY) return;
     const double *phi = R->head_phi + (size_t)i * 2 * R->m;
     double rx = nx * c + ny * s, ry = -nx * s + ny * c; /* R^T n */
     row[0] = nx * py - ny * px;
     for (int j = 0; j < R->m; ++j) row[1 + j] = -(rx * phi[j] + ry * phi[R->m + j]);
+    for (int a = 0; a < n; ++a) C->grad[a] += row[a] * wd;
+    if (terms != CONTACT_HESSIAN) return;
     for (int a = 0; a < n; ++a) {
-        C->grad[a] += row[a] * wd;
         double wa = w * row[a];
         for (int b = 0; b < n; ++b) C->hess[a * n + b] += wa * row[b];
     }
 }
 
-/* The wall contact at z: energy and force, and with_derivatives its gradient and Hessian. */
-void femp_r_contact_at(const Reduced *R, const double *z, int with_derivatives, Contact *C, double *row) {
+/* The wall contact at z: energy and force, and as `terms` asks its gradient and Hessian. */
+void femp_r_contact_at(const Reduced *R, const double *z, int terms, Contact *C, double *row) {
     int n = R->m + 1;
     C->active = 0;
     C->energy = C->fx = C->fy = 0.0;
-    if (with_derivatives) {
-        memset(C->grad, 0, sizeof(double) * n);
-        memset(C->hess, 0, sizeof(double) * n * n);
-    }
+    if (terms != CONTACT_ENERGY) memset(C->grad, 0, sizeof(double) * n);
+    if (terms == CONTACT_HESSIAN) memset(C->hess, 0, sizeof(double) * n * n);
     if (!R->contact_on) return;
     const double *q = z + 1;
     double c = cos(z[0]), s = sin(z[0]);
@@ -263,7 +262,7 @@ void femp_r_contact_at(const Reduced *R, const double *z, int with_derivatives, 
             double px, py;
             femp_r_head_point(R, i, c, s, q, &px, &py);
             if (px < R->x_max && px > R->x_min && py < R->y_max && py > R->y_min)
-                add_point(R, i, px, py, c, s, with_derivatives, C, row);
+                add_point(R, i, px, py, c, s, terms, C, row);
         }
     }
 }
@@ -273,7 +272,7 @@ void femp_reduced_contact(const Reduced *R, const double *z, double *out) {
     int n = R->m + 1;
     double *row = malloc(sizeof(double) * n);
     Contact C = {0, 0.0, 0.0, 0.0, out + 4, out + 4 + n};
-    femp_r_contact_at(R, z, 1, &C, row);
+    femp_r_contact_at(R, z, CONTACT_HESSIAN, &C, row);
     free(row);
     out[0] = C.active;
     out[1] = C.energy;
@@ -294,7 +293,7 @@ typedef struct { /* scratch of a step: n or m doubles each, and the contact term
 } Scratch;
 
 static double potential(const Reduced *R, const double *z, Scratch *w, double parts[3]) {
-    femp_r_contact_at(R, z, 0, &w->contact, w->row);
+    femp_r_contact_at(R, z, CONTACT_ENERGY, &w->contact, w->row);
     parts[0] = femp_r_gravity_energy(R, z);
     parts[1] = w->contact.energy;
     parts[2] = femp_reduced_strain_energy(R, z + 1);
@@ -374,7 +373,7 @@ static void residual(const Reduced *R, const Start *S, const double *z1, double 
     femp_reduced_strain_gradient(R, qm, g_q);
     for (int j = 0; j < m; ++j) g_q[j] += (g * sn) * R->moment_modes[j] + (g * cs) * R->moment_modes[m + j];
     double g_th = g * (cs * Sm[0] - sn * Sm[1]);
-    femp_r_contact_at(R, w->zm, 1, &w->contact, w->row);
+    femp_r_contact_at(R, w->zm, CONTACT_HESSIAN, &w->contact, w->row);
     if (w->contact.active) {
         g_th += w->contact.grad[0];
         for (int j = 0; j < m; ++j) g_q[j] += w->contact.grad[1 + j];
@@ -453,7 +452,7 @@ static int predict(const Reduced *R, const Start *S, double dt, Scratch *w, doub
     double *v0 = w->p1, *rhs = w->delta, *border = w->cm, *force_q = w->tmp;
     v0[0] = (S->p0[0] - femp_r_dot(m, S->c0, S->p0 + 1)) / S->s0;
     for (int j = 0; j < m; ++j) v0[1 + j] = S->p0[1 + j] - v0[0] * S->c0[j];
-    femp_r_contact_at(R, z0, 1, &w->contact, w->row);
+    femp_r_contact_at(R, z0, CONTACT_HESSIAN, &w->contact, w->row);
     gravity_gradient(R, z0, w->zm);
     double om = v0[0];
     right_gyro(R, v0 + 1, w->tmp2);
