@@ -125,58 +125,73 @@ def control_struct(control: StepControl) -> Any:
     return c
 
 
-def _run(
-    run: CoreAdvance,
-    x: np.ndarray,
-    control: Any,
-    t: float,
-    t_end: float,
-    torque: Torque,
-    start: Outputs,
-    load: tuple[float, float],
-    callbacks: _Callbacks,
-) -> tuple[np.ndarray, Any, int]:
-    """Call the core; (the stepped state array, the advance struct, the status), raising what it must."""
-    profile = torque if isinstance(torque, TorqueProfile) else TorqueProfile(float(torque))
-    T = ffi.new("struct femp_torque *", (profile.value, profile.rate, profile.curvature))
-    a = ffi.new("struct femp_advance *")
-    a.t_start, a.t_end, a.hold, a.force_now = t, t_end, start.contact_hold, start.contact_force
-    a.theta, (a.gravity_moment, a.head_centre_depth), a.gap_start = start.theta, load, start.gap
-    stepped = np.array(x, dtype=np.float64)
-    handle = ffi.new_handle(callbacks)
-    stop = ffi.NULL if callbacks.stop is None else lib.femp_python_stop
-    status = run(pointer(stepped), control, T, a, stop, handle)
-    if callbacks.error is not None:
-        raise callbacks.error
-    if status == lib.FEMP_ADVANCE_FAILED:
-        raise smallest_step_failed(control.min_step, a.t_reached)
-    if status == lib.FEMP_ADVANCE_TOO_MANY_STEPS:
-        check_substeps(StepControl(max_substeps=control.max_substeps), a.substeps, a.t_reached, t_end)
-    return stepped, a, status
+class CoreRun:
+    """The structs and the state array of one model's advances on the core, made once: an advance fills them
+    (the torque, the start, the state) and calls the core's advance `run` of that model (a fidelity in C:
+    rigid, reduced; or a Python model through the binding's callbacks)."""
+
+    def __init__(self, run: CoreAdvance, control: StepControl, size: int):
+        self._run, self.control = run, control_struct(control)
+        self._min_step, self._max_substeps = control.min_step, control.max_substeps
+        self._T, self._a = ffi.new("struct femp_torque *"), ffi.new("struct femp_advance *")
+        self._x = np.zeros(size)
+        self._at = pointer(self._x)
+
+    def __call__(
+        self,
+        x: Any,
+        t: float,
+        t_end: float,
+        torque: Torque,
+        start: Outputs,
+        load: tuple[float, float],
+        callbacks: _Callbacks,
+    ) -> tuple[np.ndarray, Any, int]:
+        """Step x (copied in) from t to t_end; (the stepped state, the advance struct, the status), raising
+        StepFailed where the core failed and what a callback raised."""
+        T, a = self._T, self._a
+        if isinstance(torque, TorqueProfile):
+            T.value, T.rate, T.curvature = torque.value, torque.rate, torque.curvature
+        else:
+            T.value, T.rate, T.curvature = torque, 0.0, 0.0
+        a.t_start, a.t_end, a.hold, a.force_now = t, t_end, start.contact_hold, start.contact_force
+        a.theta, (a.gravity_moment, a.head_centre_depth), a.gap_start = start.theta, load, start.gap
+        self._x[:] = x
+        if callbacks.stop is None and callbacks.model is None:  # no callback: no handle to make
+            stop, handle = ffi.NULL, ffi.NULL
+        else:
+            stop = ffi.NULL if callbacks.stop is None else lib.femp_python_stop
+            handle = ffi.new_handle(callbacks)
+        status = self._run(self._at, self.control, T, a, stop, handle)
+        if callbacks.error is not None:
+            raise callbacks.error
+        if status == lib.FEMP_ADVANCE_FAILED:
+            raise smallest_step_failed(self._min_step, a.t_reached)
+        if status == lib.FEMP_ADVANCE_TOO_MANY_STEPS:
+            check_substeps(StepControl(max_substeps=self._max_substeps), a.substeps, a.t_reached, t_end)
+        return self._x.copy(), a, status
+
+    def advance(
+        self,
+        x: Any,
+        t: float,
+        t_end: float,
+        torque: Torque,
+        start: Outputs,
+        load: tuple[float, float],
+        stop: StopAt | None = None,
+    ) -> AdvanceResult[np.ndarray]:
+        """Advance the state x (its numbers) of a model in C from t to t_end; `start` the outputs at t (the contact's
+        hold and force, the angle, the gap), `load` (m g d, the head centre's depth) for the held-contact
+        test."""
+        stepped, a, status = self(x, t, t_end, torque, start, load, _Callbacks(stop))
+        return _result(stepped, a, status)
 
 
 def _result(state: X, a: Any, status: int) -> AdvanceResult[X]:
     tally = ContactTally(a.force_max, a.impulse_x, a.impulse_y, a.hold, a.force_now)
     stopped = a.t_reached if status == lib.FEMP_ADVANCE_STOPPED else None
     return AdvanceResult(state, a.substeps, a.rejected, a.min_gap, tally, stopped)
-
-
-def compiled_advance(
-    run: CoreAdvance,
-    x: np.ndarray,
-    control: Any,
-    t: float,
-    t_end: float,
-    torque: Torque,
-    start: Outputs,
-    load: tuple[float, float],
-    stop: StopAt | None = None,
-) -> AdvanceResult[np.ndarray]:
-    """Advance the state array x (a copy is stepped) of a model in C from t to t_end by `run`; `start` the
-    outputs at t (the contact's hold and force, the angle, the gap), `load` (m g d, the head centre's depth)
-    for the held-contact test."""
-    stepped, a, status = _run(run, x, control, t, t_end, torque, start, load, _Callbacks(stop))
-    return _result(stepped, a, status)
 
 
 class _PythonModel(Generic[X]):
@@ -212,7 +227,7 @@ def advance(
     start = outputs() if callable(outputs) else Outputs(gap=math.inf)
     # no load without a scene and outputs: (0 + |T|) / inf
     load = (_gravity_moment(scene), scene.geometry.head_centre_depth) if scene and callable(outputs) else NO_LOAD
-    stepped, a, status = _run(run, np.zeros(1), control_struct(control), t, t_end, torque, start, load, callbacks)
+    stepped, a, status = CoreRun(run, control, 1)((0.0,), t, t_end, torque, start, load, callbacks)
     return _result(callbacks.states[int(stepped[0])], a, status)
 
 

@@ -13,15 +13,16 @@ import numpy as np
 
 from ._femp_core import ffi, lib
 
-C_TYPES = {np.dtype(np.float64): "double *", np.dtype(np.int32): "int *"}
+C_TYPES = {np.dtype(np.float64): "double[]", np.dtype(np.int32): "int[]"}
 
 
 def pointer(array: np.ndarray) -> Any:
-    """The C pointer to `array`'s first element (a cffi cdata of double * or int *)."""
+    """The C view of `array` (a cffi cdata of double[] or int[], passed where the core takes double * or
+    int *): its memory, not a copy, held alive by the view."""
     ctype = C_TYPES.get(array.dtype)
     if ctype is None or not array.flags.c_contiguous:
         raise TypeError(f"the core reads C-contiguous float64 or int32 arrays, not {array.dtype} {array.shape}")
-    return ffi.cast(ctype, array.ctypes.data)
+    return ffi.from_buffer(ctype, array)
 
 
 def fields(struct: str) -> tuple[str, ...]:

@@ -41,7 +41,7 @@ import math
 
 import numpy as np
 
-from ..compiled_advance import compiled_advance, control_struct
+from ..compiled_advance import CoreRun
 from ..mass_properties import gravity_moment
 from ..output_rates import flow_derivatives, flow_step
 from ..protocol import BodyField, ModelState, OutputDerivatives, Outputs, StopAt, restore_advance_summary
@@ -99,8 +99,8 @@ class ReducedModel(SteppedModel[ReducedState]):
         self._newton = NewtonStep(mass, gravity, potential, contact, strain, torque_unit, b.omega2)  # numpy form
         self._step = self._newton.step if kernel is None else CompiledStep(kernel, potential).step
         self._field = ModalField(scene, b.phi)
-        self._core_control = control_struct(self.control)
         self._load = (gravity_moment(scene), scene.geometry.head_centre_depth)  # the held-contact test's load
+        self._core_run = None if kernel is None else CoreRun(kernel.run_advance, self.control, 2 * self.n + 1)
         z0 = np.zeros(self.n)
         z0[0] = float(scene.theta0)
         p0 = self.mass_matrix(z0) @ np.concatenate([[float(scene.omega0)], np.zeros(self.m)])
@@ -112,21 +112,11 @@ class ReducedModel(SteppedModel[ReducedState]):
     def _stepped(self, t_end: float, torque: Torque, stop: StopAt | None) -> AdvanceResult[ReducedState]:
         """The advance's steps in the compiled core (core/reduced_advance.c); in numpy by stepping.py on the
         model without a core, the core's test reference."""
-        if self._kernel is None:
+        if self._core_run is None:
             return super()._stepped(t_end, torque, stop)
         x, n = self._x, self.n
         state = np.concatenate([x.z, x.p, [x.torque_work]])
-        run = compiled_advance(
-            self._kernel.run_advance,
-            state,
-            self._core_control,
-            self.time,
-            t_end,
-            torque,
-            self._outputs,
-            self._load,
-            stop,
-        )
+        run = self._core_run.advance(state, self.time, t_end, torque, self._outputs, self._load, stop)
         s = run.state
         stepped = ReducedState(s[:n].copy(), s[n : 2 * n].copy(), float(s[2 * n]))
         return AdvanceResult(stepped, run.substeps, run.rejected, run.min_gap, run.contact, run.stopped_at)

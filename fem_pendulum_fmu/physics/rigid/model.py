@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..compiled_advance import compiled_advance, control_struct
+from ..compiled_advance import CoreRun
 from ..contact_time import effective_mass
 from ..mass_properties import gravity_moment, mass_properties
 from ..output_rates import flow_derivatives, flow_step
@@ -120,7 +120,7 @@ class RigidModel(SteppedModel[RigidState]):
             y_min=self.block.y_min,
             y_max=self.block.y_max,
         )
-        self._core_control = control_struct(self.control)
+        self._core_run = CoreRun(self._core.run_advance, self.control, 3)
         self._load = (self._mgd, self._depth)  # the held-contact test's load: m g d and the head centre's depth
         self._sampler: VertexSampler | None = None  # the mesh's vertices, for fields()
         self.time = 0.0
@@ -225,17 +225,7 @@ class RigidModel(SteppedModel[RigidState]):
     def _stepped(self, t_end: float, torque: Torque, stop: StopAt | None) -> AdvanceResult[RigidState]:
         """The advance in the compiled core (core/rigid_advance.c): one free-flight step where the head
         provably stays off the block during it, else the shared step control."""
-        run = compiled_advance(
-            self._core.run_advance,
-            np.array(self._x),
-            self._core_control,
-            self.time,
-            t_end,
-            torque,
-            self._outputs,
-            self._load,
-            stop,
-        )
+        run = self._core_run.advance(self._x, self.time, t_end, torque, self._outputs, self._load, stop)
         stepped = new_state(RigidState, tuple(run.state.tolist()))
         return AdvanceResult(stepped, run.substeps, run.rejected, run.min_gap, run.contact, run.stopped_at)
 
