@@ -82,8 +82,8 @@ void femp_stress_residual(int q, const int *indptr, const int *indices, const do
         double p00 = w * (m00 * s00 + m01 * s01), p01 = w * (m00 * s01 + m01 * s11);
         double p10 = w * (m10 * s00 + m11 * s01), p11 = w * (m10 * s01 + m11 * s11);
         /* each entry gets the d/dx row's term, then the d/dy row's, as two loops over the rows would add them;
-         * read and written once (through pointers the compiler cannot tell apart, its four read-modify-writes
-         * each waited for the store before: 4 % of the kernel's time, docs/notes/fem.md change 24) */
+         * read and written once (through pointers the compiler cannot tell apart, four read-modify-writes
+         * would each wait for the store before: 4 % of the kernel's time) */
         const int *idx = indices + indptr[p];
         const double *gx = data + indptr[p], *gy = data + indptr[q + p];
         for (int k = 0, m = indptr[p + 1] - indptr[p]; k < m; ++k) {
@@ -114,8 +114,8 @@ void femp_csr_axpy(int n, const int *indptr, const int *indices, const double *d
  * the columns column i of L holds as rows; Ur keeps U's strict part so, row i at Lp[i] (femp_lu_factor writes
  * it). The rows below a supernode are then read once for all its columns (forward) and its rows (backward),
  * where the column-by-column solve read and wrote each of them once per column: on the 0.005 m mesh
- * (171k entries in L, 1319 supernodes of 3.7 columns, 959 of them a node's x and y) the solves took 39 % fewer
- * instructions (docs/notes/fem.md, change 27). sn: the count, then the starts. */
+ * (171k entries in L, 1319 supernodes of 3.7 columns, 959 of them a node's x and y) the solves take 39 % fewer
+ * instructions. sn: the count, then the starts. */
 #define SOLVE_CHUNK 256   /* the rows below a supernode, taken this many at a time in a local array */
 #define SUPERNODE_MOST 64 /* the widest supernode (fem/lu.py, supernodes, keeps to it) */
 

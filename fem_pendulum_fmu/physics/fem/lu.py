@@ -2,19 +2,18 @@
 
 The solve runs in the compiled core (femp_lu_solve), where one costs about a
 tenth of an ngsolve UMFPACK inverse's Mult on the 302 unknowns of the steel
-scene's mesh: that Mult, not the arithmetic, was the larger half of a Newton
-iteration once the residual was compiled (docs/notes/fem.md, "Profile and speed-up").
+scene's mesh, where that Mult, not the arithmetic, would be the larger half of a
+Newton iteration.
 
 A matrix is factorised without pivoting on a fill-reducing
 order and structure computed once per sparsity pattern (`Symbolic`), in one
 compiled call: a rubber run refactorises about 1300 times in 2 s, and
-SuperLU took 1.5 ms a time plus 0.8 ms of Python around it (equilibration,
-copying its factors out), the kernel 0.3 ms (docs/notes/fem.md, "Jacobians and
-factors in the kernel"). Where a pivot nearly vanishes (PIVOT_MIN) the matrix goes
+SuperLU takes 1.5 ms a time plus 0.8 ms of Python around it (equilibration,
+copying its factors out), the core 0.3 ms. Where a pivot nearly vanishes (PIVOT_MIN) the matrix goes
 to SuperLU instead; either way the factors are a function of the matrix
 alone, so a restored model refactorises bit-identically. The kernel's own
 factors are solved by supernodes (`supernodes`): runs of columns that share
-the rows below them, read once for the whole run (docs/notes/fem.md, change 27).
+the rows below them, read once for the whole run.
 """
 
 from __future__ import annotations

@@ -11,9 +11,9 @@ frame-indifferent (elastic stress, follower torque; inertia, hinge and gravity
 are isotropic or constant), so the Jacobian at a configuration turned rigidly
 by d about the pivot is Q(d) J Q(d)^T, Q turning every nodal vector of the
 pendulum (and the hinge multipliers) by d. Without the turn the swinging steel
-pendulum's held Jacobian contracted too slowly after one step (its stiffness
-is 65 times its inertia at 1 ms steps) and was re-assembled in 228 of 330
-steps; with it, in 35 (docs/notes/fem.md, "Profile and speed-up").
+pendulum's held Jacobian contracts too slowly after one step (its stiffness
+is 65 times its inertia at 1 ms steps) and is re-assembled in 228 of 330
+steps; with it, in 35.
 
 On soft bodies with the compiled rigid-wall contact the held Jacobian leaves
 the contact out, and each iteration adds the contact's own Jacobian at the
@@ -50,18 +50,17 @@ from .step_load import JacobianPoint, StepLoad
 # With the residual compiled (fem/residual.py) an iteration costs about 0.16 ms on the rubber scene's mesh,
 # a re-assembly and factorisation about 8 ms: the held Jacobian is kept while the corrections shrink by at
 # least 1 / SLOWEST_CONTRACTION and would converge within NEWTON_MAX_IT iterations. Rubber, 2 s (four
-# impacts): 2x and 20 iterations took 701 re-assemblies from u0 + dt v0 and 349 (28369 iterations) from
-# FemModel._drift_guess; 1.4x and 30 take 190 (33687 iterations): 6 % less time (docs/notes/fem.md). With the Jacobian
-# and its factors compiled (split_jacobian.SplitJacobian, lu.Symbolic) a new one costs about 1.5 ms, nine
-# iterations; refreshing it too when the rate predicted more than 12 or 15 iterations saved 13 % of them for
-# twice the Jacobians, no faster (docs/notes/fem.md, "Jacobians and factors in the kernel").
+# impacts): 2x and 20 iterations take 349 re-assemblies (28369 iterations) from FemModel._drift_guess, 1.4x and
+# 30 take 190 (33687 iterations) and 6 % less time. With the Jacobian and its factors compiled
+# (split_jacobian.SplitJacobian, lu.Symbolic) a new one costs about 1.5 ms, nine iterations; refreshing it also
+# where the rate predicts more than 12 or 15 iterations saves 13 % of them for twice the Jacobians, no faster.
 NEWTON_MAX_IT = 30
 SLOWEST_CONTRACTION = 0.7
 # A solve re-assembles its Jacobian at most this many times; one that would need more fails, and the step
 # control halves the step. In the rubber's held contacts (1 ms steps, head points entering and leaving the
 # wall within a step) refreshed Jacobians did not contract better: single doSteps re-assembled 86-110 times
 # in 6 steps (108-130 ms). Rubber, 2 s: 272 Jacobians instead of 616, the slowest doStep 37 instead of 92
-# times the median; theta up to the second impact the same (docs/notes/fem.md, "Each change and what it bought").
+# times the median; theta up to the second impact the same.
 MAX_REFRESHES = 3
 # Converged when the error left (converged()) is under this share of the step's displacement (largest
 # |dt v|), plus 1e-15 m. 1e-9 took 7 % fewer iterations on the steel swing, but with the mean-velocity start
@@ -69,13 +68,11 @@ MAX_REFRESHES = 3
 # energy moved (tests/test_hard_cases.py bounds it at 1e-7); with 1e-10 it stays under it.
 NEWTON_RTOL = 1e-10
 # The least contraction converged() credits a correction with. Taking the last correction itself as the error
-# left (as before) cost one more iteration wherever the held Jacobian contracts by 1e-3 (free flight at 1 ms
-# steps); at 0.1: 23 % fewer iterations on the 0.005 m mesh, 15 % on the steel swing, 7 % on rubber, the
-# energy error unchanged (1.8e-9 of the swing on steel); at 0.01 the steel's grew to 2.4e-8 and at 0 to 1.3e-7,
-# where the secant step's uneven contraction made one ratio an underestimate (docs/notes/fem.md, change 20). At 0.03
-# against 0.1: 5.2 % fewer iterations on the 0.005 m mesh, 5.6 % on the steel swing, 3.6 % on rubber, the steel's
-# energy error 2.5e-9 of the swing instead of 2.2e-9 (change 24). At 0.01 against 0.03: 3.6 % fewer on the
-# 0.005 m mesh, 4.2 % on the steel swing (2 s), the steel's energy error 1.3e-8 of the swing (change 26).
+# left costs one more iteration wherever the held Jacobian contracts by 1e-3 (free flight at 1 ms steps). Lower
+# floors take fewer iterations (0.1 against none: 23 % fewer on the 0.005 m mesh, 15 % on the steel swing, 7 %
+# on rubber; 0.01 against 0.03: 3.6 % and 4.2 % fewer) for a larger energy error (steel: 1.8e-9 of the swing at
+# 0.1, 1.3e-8 at 0.01, 1.3e-7 at 0, where the secant step's uneven contraction makes one ratio an
+# underestimate); 0.01 keeps it within the steel scene's 1e-4 bound with room.
 RATE_FLOOR = 0.01
 # A step size farther than this share from the held Jacobian's needs a new one (its inertia part goes as
 # 1/dt^2); closer, the contraction test decides. In contact the steps change by a few per mille each: on the
@@ -142,7 +139,7 @@ def too_slow(size: float, last: float, tol: float, left: int, rate_only: bool = 
     re-assembled, it converges in two. rate_only: the held factors are updated for the contact at each
     iterate (fem/contact_update.py), so that a slow start comes from head points crossing the wall's face
     between iterates, which no new Jacobian changes: on rubber, 2 s, 99 Jacobians instead of 182 for 0.6 %
-    more iterations, and no step halved (docs/notes/fem.md, change 30)."""
+    more iterations, and no step halved."""
     if size > SLOWEST_CONTRACTION * last:
         return True
     if rate_only or not math.isfinite(last) or size <= 0.0:
@@ -275,9 +272,9 @@ class HeldJacobianNewton:
 
     def _mid_angle(self, u0: np.ndarray, u1: np.ndarray) -> float:
         """The pendulum's angle halfway through a step from u0 to (about) u1. The step form's Jacobian
-        depends on both ends: turned by the rotation of the start alone, the held one was off by the turn
+        depends on both ends: turned by the rotation of the start alone, the held one is off by the turn
         the pendulum makes within a step (omega dt, up to 1e-3 rad at 1 ms steps), and its iterations
-        contracted by 1e-2 instead of 1e-3 on the steel swing (docs/notes/fem.md, change 15)."""
+        contract by 1e-2 instead of 1e-3 on the steel swing."""
         return 0.5 * (self._turn.angle(u0) + self._turn.angle(u1))
 
     def _held_angle(self, held: JacobianPoint) -> float:

@@ -60,7 +60,7 @@ class LinearTerms:
         # the torque's line load per unit torque_load: -weight Cof(I + G) N = -weight (N + Cof(G) N)
         torque_rest = LinearForm(-InnerProduct(torque_weight * N, du) * ngs.ds("hinge"))
         torque_grad = BilinearForm(-InnerProduct(torque_weight * (Cof(Grad(u).Trace()) * N), du) * ngs.ds("hinge"))
-        # without NGSolve's stored zeros, half the mass's entries, read every iteration (docs/notes/fem.md, change 25)
+        # without NGSolve's stored zeros: half the mass's entries, and every iteration reads them
         forms = (mass, hinge, torque_grad)
         self.mass, self.hinge, self.torque_grad = (nonzero_entries(scipy_matrix(f.Assemble().mat)) for f in forms)
         self._args = [

@@ -1,9 +1,9 @@
 """The rigid wall's contact term of the step residual in the compiled core (femp_rigid_contact,
 core/fem_rigid_contact.c), in place of its NGSolve form's `Apply`.
 
-In an impact every Newton iteration applied that form: on the steel scene's mesh
-about 20 us a call, an eighth of an impact's time once the rest of the iteration
-was compiled (docs/notes/fem.md, "Each change and what it bought"). The term is a sum
+In an impact every Newton iteration would apply that form: on the steel scene's
+mesh about 20 us a call, an eighth of an impact's time with the rest of the
+iteration compiled. The term is a sum
 over the head boundary's Gauss points of the form's own rule (fe_boundary.head_points):
 the discrete-gradient force of contact_law.py from the step's start position to
 the iterate's, times the test functions there (fem/head.py's trace matrix), the

@@ -4,7 +4,7 @@ After an impact the bodies ring (the steel plate at about 1 kHz), and 1 ms steps
 do not resolve that ringing: the guess u0 + dt (u0 - u_prev) / dt missed the
 step's end by 1e-5 to 5e-4 m where it missed it by 2e-6 m before the first
 impact, and the held Jacobian, which gains about two digits an iteration, took
-5 to 6 iterations a step instead of 4 (docs/notes/fem.md, change 19). Those
+5 to 6 iterations a step instead of 4. Those
 misses are not noise: at equal steps a linear body's modes each follow a
 fixed two-term recurrence, and so does their sum of a few dominant ones. So
 the misses of the last WINDOW + DEPTH equal free-flight steps are kept
