@@ -62,7 +62,10 @@ def readme_command(fmu: Path, work: Path, stop_time: float | None = None) -> lis
         "out/run": str(work / "run"),
         "out/run.gif": str(work / "run.gif"),
     }
-    command = [sys.executable, "-m", "fem_pendulum_fmu.cli", *(paths.get(a, a) for a in README_RUN.split())]
+    # the installed command, as the README runs it: `python -m` would put the working folder first on the
+    # path, and from a checkout import its sources, not the installed package the FMU was built from
+    fem_pendulum = str(Path(sys.executable).parent / "fem-pendulum")
+    command = [fem_pendulum, *(paths.get(a, a) for a in README_RUN.split())]
     return command + (["--stop-time", repr(stop_time)] if stop_time is not None else [])
 
 
