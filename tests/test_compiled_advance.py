@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from fem_pendulum_fmu.physics.fem.model import FemModel
 from fem_pendulum_fmu.physics.protocol import StepFailed
 from fem_pendulum_fmu.physics.reduced.model import ReducedModel
 from fem_pendulum_fmu.physics.scene import rubber, steel
@@ -77,3 +78,19 @@ def test_a_failing_stop_and_too_many_steps_leave_the_state_as_it_was():
     assert after.time == before.time
     for name, array in before.arrays.items():
         assert np.array_equal(array, after.arrays[name]), name
+
+
+def test_an_exception_in_a_python_models_function_reaches_the_caller_and_keeps_the_state():
+    """The FE model's step and contact geometry are called back from the core's step control: an exception
+    there ends the advance, the caller gets it, and the model's state is as it was."""
+    model = FemModel(steel())
+    model.advance(0.002)
+    before = model.get_state().to_bytes()
+
+    def broken(x):
+        raise RuntimeError("the gap could not be measured")
+
+    model.gap_and_rate = broken  # type: ignore[method-assign]
+    with pytest.raises(RuntimeError, match="the gap could not be measured"):
+        model.advance(0.003)
+    assert model.get_state().to_bytes() == before

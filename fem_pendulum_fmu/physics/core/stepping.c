@@ -40,7 +40,7 @@ typedef struct {
 
 static void view_make(View *v) {
     if (v->made) return;
-    double t_contact, d_max;
+    double t_contact = INFINITY, d_max = 0.0; /* as a model that writes nothing (a failed callback) says */
     v->model->contact_scales(v->model->self, v->x, &t_contact, &d_max);
     int n = contact_steps(v->control, t_contact);
     v->t_contact = t_contact, v->dt_contact = t_contact / n, v->pen_tol = d_max / n;
@@ -83,7 +83,7 @@ static double hold_after(const struct femp_step_control *c, double hold, double 
 /* count an accepted step from x0 (gap gap0) to x1 (stepping.py, ContactTally.add) */
 static void tally(const struct femp_steppable *m, const struct femp_step_control *c, struct femp_advance *a,
                   const double *x0, const double *x1, double dt, double gap0) {
-    double gap1, rate, j[2];
+    double gap1 = INFINITY, rate = 0.0, j[2] = {0.0, 0.0};
     m->gap_and_rate(m->self, x1, &gap1, &rate);
     a->hold = hold_after(c, a->hold, gap0, gap1, dt);
     a->force_now = 0.0;
@@ -131,11 +131,11 @@ static int step_locating_onset(const struct femp_steppable *m, const double *x, 
                                double s, double gap0, View *v, const struct femp_step_control *c, double *out,
                                double *trial, double *lo_x, int *fails) {
     int size = m->size;
-    double rate;
+    double rate = 0.0;
     *fails = 0;
     if (!m->step(m->self, x, *dt, torque_mean(T, s, s + *dt), out)) return *fails = 1, 0;
     if (gap0 < 0.0) return 1;
-    double g_hi;
+    double g_hi = INFINITY;
     m->gap_and_rate(m->self, out, &g_hi, &rate);
     if (g_hi >= 0.0) return 1;
     view_make(v);
@@ -152,7 +152,7 @@ static int step_locating_onset(const struct femp_steppable *m, const double *x, 
             *dt = trial_dt, *fails += 1;
             return 0;
         }
-        double g;
+        double g = INFINITY;
         m->gap_and_rate(m->self, trial, &g, &rate);
         if (-pen_tol <= g && g <= pen_tol) {
             memcpy(out, trial, sizeof(double) * size);
@@ -197,7 +197,8 @@ int femp_advance(const struct femp_steppable *m, const struct femp_step_control 
     int size = m->size;
     double *scratch = malloc(sizeof(double) * 4 * size), *x_new = scratch, *trial = scratch + size;
     double *lo_x = scratch + 2 * size;
-    double t = a->t_start, t_end = a->t_end, dt_cap = c->max_step, load = NAN, last_contact_dt = 0.0, gap, rate;
+    double t = a->t_start, t_end = a->t_end, dt_cap = c->max_step, load = NAN, last_contact_dt = 0.0;
+    double gap = INFINITY, rate = 0.0;
     a->substeps = a->rejected = 0, a->status = FEMP_ADVANCE_DONE;
     a->min_gap = INFINITY, a->force_max = a->impulse_x = a->impulse_y = 0.0;
     while (t_end - t > 0.0) {
@@ -223,7 +224,7 @@ int femp_advance(const struct femp_steppable *m, const struct femp_step_control 
         t = dt >= remaining ? t_end : t + dt;
         a->substeps += 1;
         if (stop != NULL && t < t_end) {
-            double gap1;
+            double gap1 = INFINITY;
             m->gap_and_rate(m->self, x, &gap1, &rate);
             if (stop(context, t, gap, gap1)) {
                 a->status = FEMP_ADVANCE_STOPPED;
