@@ -1,5 +1,6 @@
-"""The reduced model's advance in the compiled core (core/stepping.c, core/reduced_advance.c) against the same
-model stepped by physics/stepping.py (the Python step control around the same compiled step).
+"""The reduced model's advance in the compiled core (core/reduced_advance.c) against the same model's Python
+functions for the wall (reduced/approach.py, reduced/contact.py) around the same compiled step, on the same
+step control (core/stepping.c, the Python functions called back).
 
 Both make the same decisions from the same quantities; the core sums the gap's, rate's and scales' terms
 in its own order, so states drift apart by round-off. Measured on the steel scene through the first

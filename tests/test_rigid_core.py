@@ -1,5 +1,5 @@
 """The rigid fidelity in the compiled core (core/rigid_model.c, core/rigid_advance.c) against the same law and
-step in Python (rigid/arc_contact.py, rigid/solve.py, stepped by physics/stepping.py)."""
+step in Python (rigid/arc_contact.py, rigid/solve.py, called back from the core's step control)."""
 
 from __future__ import annotations
 
