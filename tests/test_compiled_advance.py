@@ -26,7 +26,7 @@ THETA_TOL = 1e-9  # rad: the measured drift (3.3e-13) with a margin for another 
 
 
 def pair(scene) -> tuple[ReducedModel, ReducedModel]:
-    """(the core's advance, stepping.py's advance) of one scene."""
+    """(the core's advance, the Python functions' advance) of one scene."""
     core, python = ReducedModel(scene), ReducedModel(scene)
     python._stepped = lambda t_end, torque, stop: SteppedModel._stepped(python, t_end, torque, stop)
     return core, python
@@ -35,7 +35,7 @@ def pair(scene) -> tuple[ReducedModel, ReducedModel]:
 @pytest.mark.parametrize(
     ("preset", "steps", "torque"), [(steel, 1000, -1.0), (rubber, 300, 0.0)], ids=["steel", "rubber"]
 )
-def test_the_core_steps_as_stepping_py(preset, steps, torque):
+def test_the_core_steps_as_the_python_functions(preset, steps, torque):
     core, python = pair(preset())
     impulse = 0.0
     for k in range(1, steps + 1):
@@ -49,7 +49,7 @@ def test_the_core_steps_as_stepping_py(preset, steps, torque):
     assert impulse > 0.0  # through an impact
 
 
-def test_a_torque_polynomial_and_a_stop_are_taken_as_stepping_py_takes_them():
+def test_a_torque_polynomial_and_a_stop_are_taken_as_the_python_functions_take_them():
     core, python = pair(steel())
     torque = TorqueProfile(-0.5, -4.0, 30.0)
     for model in (core, python):

@@ -33,9 +33,9 @@ def test_the_cores_contact_law_and_gap_are_arc_contacts(wall):
     assert np.max(np.abs(gaps - reference)) <= 1e-15
 
 
-def test_the_cores_advance_steps_as_stepping_py():
+def test_the_cores_advance_steps_as_the_python_step():
     """2 s of the torque pulse through the impacts: the same internal steps in every advance, theta within
-    1e-9 rad (measured 7.5e-14: the core's free-flight steps take one Newton update where stepping.py's
+    1e-9 rad (measured 7.5e-14: the core's free-flight steps take one Newton update where the Python step's
     iterate, both converged)."""
     core, python = RigidModel(steel(theta0=0.2)), RigidModel(steel(theta0=0.2))
     python._stepped = lambda t_end, torque, stop: SteppedModel._stepped(python, t_end, torque, stop)
