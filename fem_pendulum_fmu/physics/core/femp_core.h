@@ -171,6 +171,7 @@ struct femp_reduced {
     const double *group_peak;     /* (groups, m) */
     int max_it;
     double update_tol, energy_tol, stall_tol;
+    double *potential_memo; /* (m + 3): 1 once set, the potential energy, the z it is of; kept across advances */
 };
 
 double femp_reduced_strain_energy(const struct femp_reduced *R, const double *q);

@@ -27,9 +27,6 @@ typedef struct {
     double *dist, *behind, *w;  /* their distances, and the scales' scratch (P each) */
     double *grad, *hess, *row;  /* contact terms with derivatives (n, n n, n) */
     double *group_gap, *reach;  /* each run's centre gap and reach at the last state closest() saw (groups) */
-    double *V_z;                /* the z whose potential V holds (n) */
-    double V;
-    int has_V;
     double *near_x;             /* the state (z, p) closest() last saw (2 n), whose result `near` holds */
     int has_near;
     struct closest_point { int count, index; double gap, rate, arm; } near;
@@ -241,9 +238,11 @@ static void contact_impulse(void *self, const double *x0, const double *x1, doub
     free(dz);
 }
 
-/* gravity + contact + strain at z, the step's start energy (reduced/potential.py), kept for the last end */
+/* gravity + contact + strain at z, the step's start energy (reduced/potential.py): the last step's end's, kept
+ * in the model's memo across advances (an advance's first step starts where the last one ended) */
 static double potential(Model *m, const double *z) {
-    if (m->has_V && memcmp(m->V_z, z, sizeof(double) * m->n) == 0) return m->V;
+    const double *memo = m->R->potential_memo;
+    if (memo[0] != 0.0 && memcmp(memo + 2, z, sizeof(double) * m->n) == 0) return memo[1];
     Contact C = {0, 0.0, 0.0, 0.0, m->grad, m->hess};
     femp_r_contact_at(m->R, z, 0, &C, m->row);
     return femp_r_gravity_energy(m->R, z) + C.energy + femp_reduced_strain_energy(m->R, z + 1);
@@ -255,8 +254,9 @@ static int step(void *self, const double *x0, double dt, double torque, double *
     double out[4];
     if (!femp_reduced_step(m->R, x0, x0 + n, potential(m, x0), dt, torque, x1, x1 + n, out)) return 0;
     x1[2 * n] = x0[2 * n] + out[0];
-    memcpy(m->V_z, x1, sizeof(double) * n);
-    m->V = out[1] + out[2] + out[3], m->has_V = 1;
+    double *memo = m->R->potential_memo;
+    memo[0] = 1.0, memo[1] = out[1] + out[2] + out[3];
+    memcpy(memo + 2, x1, sizeof(double) * n);
     return 1;
 }
 
@@ -264,12 +264,12 @@ int femp_reduced_advance(const struct femp_reduced *R, const struct femp_step_co
                          const struct femp_torque *torque, double *x, struct femp_advance *a, femp_stop_fn stop,
                          void *context) {
     int n = R->m + 1, P = R->P;
-    double *work = malloc(sizeof(double) * (2 * n + 3 * P + 2 * n + n * n + n + 2 * R->groups + 2 * n));
+    double *work = malloc(sizeof(double) * (2 * n + 3 * P + n + n * n + n + 2 * R->groups + 2 * n));
     int *points = malloc(sizeof(int) * P);
     Model m = {.R = R, .n = n, .max_step = control->max_step};
     m.v = work, m.c = work + n, m.dist = work + 2 * n, m.behind = m.dist + P, m.w = m.behind + P;
-    m.grad = m.w + P, m.hess = m.grad + n, m.row = m.hess + n * n, m.V_z = m.row + n, m.points = points;
-    m.group_gap = m.V_z + n, m.reach = m.group_gap + R->groups, m.near_x = m.reach + R->groups;
+    m.grad = m.w + P, m.hess = m.grad + n, m.row = m.hess + n * n, m.points = points;
+    m.group_gap = m.row + n, m.reach = m.group_gap + R->groups, m.near_x = m.reach + R->groups;
     struct femp_steppable model = {&m, 2 * n + 1, step, gap_and_rate, contact_scales, contact_force, contact_impulse};
     int status = femp_advance(&model, control, torque, x, a, stop, context);
     free(points);

@@ -33,6 +33,9 @@ class ReducedKernel:
                 setattr(data, name, pointer(array))
             else:
                 setattr(data, name, value)
+        # the potential energy of the last step's end, which the next advance starts from (femp_core.h)
+        self._potential_memo = np.zeros(int(fields["m"]) + 3)
+        data.potential_memo = pointer(self._potential_memo)
         self._ref = data
         self.n = n = int(fields["m"]) + 1
         # fixed buffers, their pointers taken once: (z0, p0) in, (z1, p1, work and energies) out
