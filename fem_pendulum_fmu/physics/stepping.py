@@ -234,19 +234,14 @@ def finish_advance(outputs: Outputs, min_gap: float, force_max: float, impulse: 
     return min_gap
 
 
-def decayed_hold(hold: float, dt: float) -> float:
-    """A contact's hold after dt out of contact: shrunk by HOLD_DECAY of it, never below 0."""
-    decayed = hold - HOLD_DECAY * dt
-    return decayed if decayed > 0.0 else 0.0
-
-
 def _hold_after(hold: float, gap0: float, gap1: float, dt: float) -> float:
     """The hold after a step from gap0 to gap1 (the seed schemes' step control; the core's is stepping.c's):
     plus its time in contact, minus HOLD_DECAY of its time outside, the crossing of a step that enters or
     leaves contact placed by the gaps (linearly)."""
     if gap0 < 0.0 and gap1 < 0.0:
         return hold + dt
-    if gap0 >= 0.0 and gap1 >= 0.0:
-        return decayed_hold(hold, dt)
+    if gap0 >= 0.0 and gap1 >= 0.0:  # out of contact throughout: shrunk by HOLD_DECAY of dt, never below 0
+        decayed = hold - HOLD_DECAY * dt
+        return decayed if decayed > 0.0 else 0.0
     inside = dt * (gap1 / (gap1 - gap0) if gap1 < 0.0 else gap0 / (gap0 - gap1))
     return max(hold + inside - HOLD_DECAY * (dt - inside), 0.0)

@@ -32,15 +32,23 @@ typedef struct {
     struct closest_point { int count, index; double gap, rate, arm; } near;
 } Model;
 
+/* M(q)'s border c = q @ gyro into m->c, and its corner m00 = I0 + 2 a.q + q.q (reduced/dynamics.py,
+ * ModalMass.parts, in its order of sums) */
+static double mass_border(Model *m, const double *q) {
+    const Reduced *R = m->R;
+    int k = R->m;
+    femp_r_left_gyro(R, q, m->c);
+    double two_aq = 0.0;
+    for (int i = 0; i < k; ++i) two_aq += 2.0 * R->a[i] * q[i];
+    return R->inertia0 + two_aq + femp_r_dot(k, q, q);
+}
+
 /* M(q)^-1 p into m->v (reduced/dynamics.py, ModalMass.velocity) */
 static void velocity(Model *m, const double *z, const double *p) {
     const Reduced *R = m->R;
     int k = R->m;
     const double *q = z + 1;
-    femp_r_left_gyro(R, q, m->c);
-    double two_aq = 0.0;
-    for (int i = 0; i < k; ++i) two_aq += 2.0 * R->a[i] * q[i];
-    double m00 = R->inertia0 + two_aq + femp_r_dot(k, q, q), s = m00 - femp_r_dot(k, m->c, m->c);
+    double m00 = mass_border(m, q), s = m00 - femp_r_dot(k, m->c, m->c);
     double v0 = (p[0] - femp_r_dot(k, m->c, p + 1)) / s;
     m->v[0] = v0;
     for (int j = 0; j < k; ++j) m->v[1 + j] = p[1 + j] - v0 * m->c[j];
@@ -215,10 +223,7 @@ static void contact_impulse(void *self, const double *x0, const double *x1, doub
     if (!m->R->contact_on) return;
     double *dz = malloc(sizeof(double) * 3 * n), *zm = dz + n, *Wdz = dz + 2 * n;
     for (int i = 0; i < n; ++i) dz[i] = x1[i] - x0[i], zm[i] = 0.5 * (x0[i] + x1[i]);
-    femp_r_left_gyro(m->R, zm + 1, m->c);
-    double two_aq = 0.0;
-    for (int i = 0; i < k; ++i) two_aq += 2.0 * m->R->a[i] * zm[1 + i];
-    double m00 = m->R->inertia0 + two_aq + femp_r_dot(k, zm + 1, zm + 1);
+    double m00 = mass_border(m, zm + 1);
     Wdz[0] = m00 * dz[0] + femp_r_dot(k, m->c, dz + 1);
     for (int i = 0; i < k; ++i) Wdz[1 + i] = m->c[i] * dz[0] + dz[1 + i];
     double denom = femp_r_dot(n, dz, Wdz);
